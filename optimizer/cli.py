@@ -1,0 +1,134 @@
+"""The ``millfoil`` command line: a thin layer over plain functions.
+
+Exit status: 0 success, 2 bad input (configuration, override, file), 3 the blade is infeasible (its
+constraints are printed; files are still written when the profile could be built).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from collections.abc import Sequence
+from pathlib import Path
+
+from geometry import DEFAULT_TOLERANCE, Mode, evaluate_blade, parameters_of
+from optimizer.config import ConfigError, load_config
+
+EXIT_OK, EXIT_INPUT, EXIT_INFEASIBLE = 0, 2, 3
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = _parser()
+    args = parser.parse_args(argv)
+    if not hasattr(args, "run"):
+        parser.print_help()
+        return EXIT_INPUT
+    try:
+        return args.run(args)
+    except ConfigError as exc:
+        print(f"millfoil: error: {exc}", file=sys.stderr)
+        return EXIT_INPUT
+
+
+def _parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="millfoil",
+        description="Multi-objective shape optimisation of hydraulic blade profiles, designed directly or "
+        "through the milling tool path that machines them (Vessaz et al. 2013).",
+    )
+    sub = parser.add_subparsers(title="commands", metavar="COMMAND")
+
+    profile = sub.add_parser(
+        "profile",
+        help="build one blade profile and check its feasibility",
+        description="Build one blade from a YAML file (or the embedded Table 4 blade), print its figures and "
+        "constraints, and optionally write it as CSV and plot it. In toolpath mode the blade is what a "
+        "cylindrical cutter leaves (N-buffer machining simulation).",
+        epilog="Examples:\n"
+        "  millfoil profile                                     # Table 4 C2 design blade\n"
+        "  millfoil profile configs/examples/table5_g1_toolpath.yaml --plot table5.png\n"
+        "  millfoil profile my.yaml --set alpha=20 --set blade.continuity=G1 --out blade.csv\n"
+        "Parameters and their units: docs/geometry.md.",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    profile.add_argument("config", nargs="?", type=Path, help="YAML file with a 'blade:' section "
+                         "(default: the embedded Table 4 blade)")
+    profile.add_argument("--set", dest="overrides", action="append", default=[], metavar="NAME=VALUE",
+                         help="override a value: a blade parameter (alpha=25, in m or deg) or a dotted key "
+                         "(blade.mode=toolpath); repeatable")
+    profile.add_argument("--out", type=Path, metavar="CSV", help="write the profile points (x,y in m)")
+    profile.add_argument("--plot", type=Path, metavar="PNG", help="write a figure of the blade")
+    profile.add_argument("--tolerance", type=float, default=DEFAULT_TOLERANCE, metavar="M",
+                         help=f"distance from the exact curves/envelope, m (default {DEFAULT_TOLERANCE:g})")
+    profile.add_argument("--json", action="store_true", help="print the summary as JSON")
+    profile.set_defaults(run=run_profile)
+    return parser
+
+
+def run_profile(args: argparse.Namespace) -> int:
+    config = load_config(args.config, args.overrides)
+    spec = config.blade.spec()
+    if not args.tolerance > 0:
+        raise ConfigError(f"--tolerance must be positive, got {args.tolerance}")
+    start = time.perf_counter()
+    result = evaluate_blade(spec, args.tolerance)
+    seconds = time.perf_counter() - start
+    profile = result.profile
+
+    summary = {
+        "mode": spec.mode.value,
+        "continuity": spec.continuity.value,
+        "parameters": dict(spec.values),
+        "outside_table6_bounds": spec.outside_bounds(),
+        "feasible": result.feasible,
+        "constraints": [{"name": c.name, "value": float(c.value), "satisfied": c.satisfied, "reason": c.reason}
+                        for c in result.constraints],
+        "seconds": seconds,
+    }
+    if profile is not None:
+        summary.update(points=len(profile.points), area_m2=profile.area, max_thickness_m=profile.max_thickness,
+                       leading_edge_m=profile.leading_edge.tolist(), tolerance_m=args.tolerance)
+        if profile.machining is not None:
+            summary.update(cutter_positions=profile.machining.cutter_positions,
+                           gouged_needle_fraction=profile.machining.gouged_fraction)
+        if args.out:
+            profile.to_csv(args.out)
+            summary["csv"] = str(args.out)
+        if args.plot:
+            from geometry.plot import plot_profile  # matplotlib is slow to import; only when asked
+
+            plot_profile(profile, args.plot)
+            summary["plot"] = str(args.plot)
+
+    print(json.dumps(summary, indent=2) if args.json else _describe(summary))
+    return EXIT_OK if result.feasible else EXIT_INFEASIBLE
+
+
+def _describe(s: dict) -> str:
+    units = {n: p.unit for n, p in parameters_of(s["mode"], s["continuity"]).items()}
+    lines = [f"{s['continuity']} {s['mode']} blade"]
+    for name, value in s["parameters"].items():
+        shown = f"{value * 1e3:g} mm" if units[name] == "m" else f"{value:g} {units[name]}".rstrip(" -")
+        flag = "   (outside Table 6 range)" if name in s["outside_table6_bounds"] else ""
+        lines.append(f"  {name:9s} {shown}{flag}")
+    lines.append("constraints (value <= 0 is feasible):")
+    for c in s["constraints"]:
+        lines.append(f"  [{'ok' if c['satisfied'] else 'VIOLATED'}] {c['name']:16s} {c['value']:+.4g}  {c['reason']}")
+    if "points" in s:
+        lines.append(f"profile: {s['points']} points within {s['tolerance_m'] * 1e6:g} µm, area "
+                     f"{s['area_m2'] * 1e6:.3f} mm², max thickness {s['max_thickness_m'] * 1e3:.3f} mm")
+    if "cutter_positions" in s:
+        lines.append(f"N-buffer: {s['cutter_positions']} cutter positions, "
+                     f"{100 * s['gouged_needle_fraction']:.1f} % of needles gouged by another position")
+    lines.append(f"built in {s['seconds'] * 1e3:.0f} ms")
+    for key in ("csv", "plot"):
+        if key in s:
+            lines.append(f"wrote {s[key]}")
+    lines.append("FEASIBLE" if s["feasible"] else "INFEASIBLE")
+    return "\n".join(lines)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

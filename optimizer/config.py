@@ -1,0 +1,135 @@
+"""Configuration files: YAML read once into frozen, validated objects.
+
+A configuration file is a YAML mapping whose top-level sections are the fields of :class:`Config`.
+Every option has a default in code; unknown keys are errors that name the key and the allowed ones.
+Command-line overrides ``--set KEY=VALUE`` use dotted paths into the file (``blade.mode=toolpath``); a bare
+name that is not a section key is a blade parameter (``alpha=25`` is ``blade.parameters.alpha=25``). Values
+are parsed as YAML scalars, so ``0.005`` is a number and ``G1`` a string.
+"""
+
+from __future__ import annotations
+
+import copy
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import yaml
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
+
+from geometry import BladeSpec, Continuity, Mode, ParameterError
+from geometry.examples import TABLE4_C2_DESIGN
+
+
+class ConfigError(ValueError):
+    """A configuration file or override that cannot be used; the message names the offending key."""
+
+
+class _Frozen(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+class BladeConfig(_Frozen):
+    """``blade:`` section — one blade: its mode, continuity class and parameter values.
+
+    Parameter values are in metres and degrees; parameters with a default (L, d_s4, d_p4, R) may be left
+    out. Defaults to the C2 design blade of Table 4 of the paper.
+    """
+
+    mode: Mode = Mode(TABLE4_C2_DESIGN["mode"])
+    continuity: Continuity = Continuity(TABLE4_C2_DESIGN["continuity"])
+    parameters: dict[str, float] = Field(default_factory=lambda: dict(TABLE4_C2_DESIGN["parameters"]))
+
+    @field_validator("mode", mode="before")
+    @classmethod
+    def _lower(cls, v: Any) -> Any:
+        return v.lower() if isinstance(v, str) else v
+
+    @field_validator("continuity", mode="before")
+    @classmethod
+    def _upper(cls, v: Any) -> Any:
+        return v.upper() if isinstance(v, str) else v
+
+    def spec(self) -> BladeSpec:
+        """The validated blade (raises ConfigError naming a bad parameter)."""
+        try:
+            return BladeSpec.from_values(self.mode, self.continuity, self.parameters)
+        except ParameterError as exc:
+            raise ConfigError(f"blade.parameters: {exc}") from None
+
+
+class Config(_Frozen):
+    """A whole configuration file."""
+
+    blade: BladeConfig = BladeConfig()
+
+
+def load_config(path: str | Path | None = None, overrides: Sequence[str] = ()) -> Config:
+    """Read ``path`` (or the embedded defaults if ``None``), apply ``KEY=VALUE`` overrides, validate."""
+    raw: dict[str, Any] = {}
+    if path is not None:
+        try:
+            text = Path(path).read_text()
+        except OSError as exc:
+            raise ConfigError(f"cannot read configuration file {path}: {exc.strerror}") from None
+        try:
+            raw = yaml.safe_load(text) or {}
+        except yaml.YAMLError as exc:
+            raise ConfigError(f"{path} is not valid YAML: {exc}") from None
+        if not isinstance(raw, dict):
+            raise ConfigError(f"{path} must be a YAML mapping of sections ({', '.join(Config.model_fields)})")
+    # A blade section that names its mode/continuity but not its parameters must not inherit Table 4's.
+    if isinstance(raw.get("blade"), dict) and "parameters" not in raw["blade"]:
+        raw["blade"]["parameters"] = {}
+    raw = apply_overrides(raw, overrides)
+    try:
+        config = Config.model_validate(raw)
+    except ValidationError as exc:
+        raise ConfigError(_explain(exc)) from None
+    config.blade.spec()  # parameter names and domains are checked here, once
+    return config
+
+
+def apply_overrides(raw: Mapping[str, Any], overrides: Sequence[str]) -> dict[str, Any]:
+    """A copy of ``raw`` with each ``KEY=VALUE`` set (see module docstring)."""
+    result = copy.deepcopy(dict(raw))
+    for item in overrides:
+        key, sep, text = item.partition("=")
+        if not sep or not key.strip():
+            raise ConfigError(f"override {item!r} must look like KEY=VALUE, e.g. alpha=25 or blade.mode=toolpath")
+        path = key.strip().split(".")
+        if len(path) == 1 and path[0] not in Config.model_fields:
+            path = ["blade", "parameters", path[0]]
+        node = result
+        for part in path[:-1]:
+            child = node.setdefault(part, {})
+            if not isinstance(child, dict):
+                raise ConfigError(f"override {item!r}: {part!r} is a value, not a section")
+            node = child
+        node[path[-1]] = yaml.safe_load(text)
+    return result
+
+
+def _explain(exc: ValidationError) -> str:
+    """One line per problem, naming the key and what it allows."""
+    lines = []
+    for err in exc.errors():
+        where = ".".join(str(p) for p in err["loc"])
+        if err["type"] == "extra_forbidden":
+            allowed = _allowed_keys(err["loc"][:-1])
+            lines.append(f"unknown key '{where}'; allowed: {', '.join(allowed)}")
+        elif err["type"] == "enum":
+            lines.append(f"'{where}' = {err['input']!r} is not allowed; allowed: {err['ctx']['expected']}")
+        else:
+            lines.append(f"'{where}': {err['msg']} (got {err['input']!r})")
+    return "; ".join(lines)
+
+
+def _allowed_keys(loc: Sequence[Any]) -> list[str]:
+    model: type[BaseModel] = Config
+    for part in loc:
+        field = model.model_fields.get(str(part))
+        if field is None or not isinstance(field.annotation, type) or not issubclass(field.annotation, BaseModel):
+            break
+        model = field.annotation
+    return list(model.model_fields)
