@@ -41,6 +41,9 @@ class Constraint:
     value: float
     reason: str
 
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "value", float(self.value))
+
     @property
     def satisfied(self) -> bool:
         return self.value <= 0.0

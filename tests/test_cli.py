@@ -1,0 +1,71 @@
+"""The command line and configuration files, as a user runs them."""
+
+import json
+from pathlib import Path
+
+import pytest
+import yaml
+
+from geometry.examples import TABLE4_C2_DESIGN, TABLE5_G1_TOOLPATH
+from optimizer.cli import EXIT_INFEASIBLE, EXIT_INPUT, EXIT_OK, main
+from optimizer.config import ConfigError, load_config
+
+EXAMPLES = Path(__file__).parents[1] / "configs" / "examples"
+
+
+@pytest.mark.parametrize("name,embedded", [("table4_c2_design.yaml", TABLE4_C2_DESIGN),
+                                           ("table5_g1_toolpath.yaml", TABLE5_G1_TOOLPATH)])
+def test_shipped_examples_match_the_embedded_tables(name, embedded):
+    blade = yaml.safe_load((EXAMPLES / name).read_text())["blade"]
+    assert blade == embedded
+
+
+def test_profile_of_each_example_writes_csv_and_plot(tmp_path, capsys):
+    for name in ("table4_c2_design.yaml", "table5_g1_toolpath.yaml"):
+        csv, png = tmp_path / f"{name}.csv", tmp_path / f"{name}.png"
+        assert main(["profile", str(EXAMPLES / name), "--out", str(csv), "--plot", str(png)]) == EXIT_OK
+        assert csv.read_text().startswith("x,y\n")
+        assert png.stat().st_size > 10_000
+    assert "FEASIBLE" in capsys.readouterr().out
+
+
+def test_profile_without_config_uses_the_embedded_default(capsys):
+    assert main(["profile", "--json"]) == EXIT_OK
+    summary = json.loads(capsys.readouterr().out)
+    assert summary["continuity"] == "C2" and summary["mode"] == "design" and summary["feasible"]
+
+
+def test_overrides(capsys):
+    assert main(["profile", str(EXAMPLES / "table5_g1_toolpath.yaml"), "--set", "d_s1=0.006",
+                 "--set", "blade.parameters.d_p1=0.006", "--json"]) == EXIT_INFEASIBLE
+    summary = json.loads(capsys.readouterr().out)
+    assert summary["parameters"]["d_s1"] == 0.006
+    assert [c["name"] for c in summary["constraints"] if not c["satisfied"]] == ["eq22_curvature"]
+
+
+@pytest.mark.parametrize("argv,message", [
+    (["--set", "blade.mode=milling"], "'blade.mode' = 'milling' is not allowed; allowed: 'design' or 'toolpath'"),
+    (["--set", "blade.colour=red"], "unknown key 'blade.colour'; allowed: mode, continuity, parameters"),
+    (["--set", "meshing.level=fine"], "unknown key 'meshing'; allowed: blade"),
+    (["--set", "k2=1.0"], "unknown parameter 'k2' for a C2 design blade"),
+    (["--set", "alpha"], "must look like KEY=VALUE"),
+    (["missing.yaml"], "cannot read configuration file missing.yaml"),
+])
+def test_bad_input_is_a_clear_error(argv, message, capsys):
+    config = [] if argv[0].endswith(".yaml") else [str(EXAMPLES / "table4_c2_design.yaml")]
+    assert main(["profile", *argv[:1], *config, *argv[1:]] if argv[0].endswith(".yaml")
+                else ["profile", *config, *argv]) == EXIT_INPUT
+    assert message in capsys.readouterr().err
+
+
+def test_a_file_without_parameters_reports_the_missing_ones(tmp_path):
+    path = tmp_path / "blade.yaml"
+    path.write_text("blade:\n  mode: toolpath\n  continuity: G2\n")
+    with pytest.raises(ConfigError, match="missing parameters 'alpha', 'beta1'"):
+        load_config(path)
+
+
+def test_help_lists_the_profile_command(capsys):
+    with pytest.raises(SystemExit):
+        main(["--help"])
+    assert "profile" in capsys.readouterr().out
