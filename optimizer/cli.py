@@ -64,7 +64,37 @@ def _parser() -> argparse.ArgumentParser:
                          help=f"distance from the exact curves/envelope, m (default {DEFAULT_TOLERANCE:g})")
     profile.add_argument("--json", action="store_true", help="print the summary as JSON")
     profile.set_defaults(run=run_profile)
+
+    space = sub.add_parser(
+        "space",
+        help="list the parameters of a blade family and its optimisation space",
+        description="Print every parameter of the configured (mode, continuity) with its unit, meaning and "
+        "domain, and the optimisation space: design variables with bounds (Table 6 unless the config's "
+        "blade.bounds/blade.fixed change them) and fixed values.",
+    )
+    space.add_argument("config", nargs="?", type=Path, help="YAML file (default: embedded defaults)")
+    space.add_argument("--set", dest="overrides", action="append", default=[], metavar="NAME=VALUE",
+                       help="override a value, e.g. blade.mode=toolpath or blade.continuity=G2")
+    space.set_defaults(run=run_space)
     return parser
+
+
+def run_space(args: argparse.Namespace) -> int:
+    config = load_config(args.config, args.overrides, blade_values=False)
+    blade = config.blade
+    space = blade.space()
+    print(f"{blade.continuity.value} {blade.mode.value} blades: {len(space.names)} design variables")
+    print(f"  {'name':9s} {'unit':4s} {'optimisation':24s} {'domain':16s} meaning")
+    for name, param in parameters_of(blade.mode, blade.continuity).items():
+        if name in space.fixed:
+            role = f"fixed {space.fixed[name]:g}"
+        else:
+            i = space.names.index(name)
+            role = f"[{space.lower[i]:g}, {space.upper[i]:g}]"
+        lo, hi = param.domain
+        domain = f"{'(' if param.open_low else '['}{lo:g}, {hi:g}]"
+        print(f"  {name:9s} {param.unit:4s} {role:24s} {domain:16s} {param.description}")
+    return EXIT_OK
 
 
 def run_profile(args: argparse.Namespace) -> int:

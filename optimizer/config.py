@@ -17,7 +17,7 @@ from typing import Any
 import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
 
-from geometry import BladeSpec, Continuity, Mode, ParameterError
+from geometry import BladeSpec, Continuity, Mode, ParameterError, ParameterSpace
 from geometry.examples import TABLE4_C2_DESIGN
 
 
@@ -30,15 +30,19 @@ class _Frozen(BaseModel):
 
 
 class BladeConfig(_Frozen):
-    """``blade:`` section — one blade: its mode, continuity class and parameter values.
+    """``blade:`` section — the blade family and one blade of it.
 
-    Parameter values are in metres and degrees; parameters with a default (L, d_s4, d_p4, R) may be left
-    out. Defaults to the C2 design blade of Table 4 of the paper.
+    ``parameters`` are the values of one blade (metres and degrees; parameters with a default — L, d_s4,
+    d_p4, R — may be left out); they default to the C2 design blade of Table 4 of the paper.
+    ``bounds`` (``name: [lower, upper]``) and ``fixed`` (``name: value``) change the optimisation space of
+    Table 6: a bound frees a fixed parameter or narrows a range, a fixed value removes a design variable.
     """
 
     mode: Mode = Mode(TABLE4_C2_DESIGN["mode"])
     continuity: Continuity = Continuity(TABLE4_C2_DESIGN["continuity"])
     parameters: dict[str, float] = Field(default_factory=lambda: dict(TABLE4_C2_DESIGN["parameters"]))
+    bounds: dict[str, tuple[float, float]] = Field(default_factory=dict)
+    fixed: dict[str, float] = Field(default_factory=dict)
 
     @field_validator("mode", mode="before")
     @classmethod
@@ -57,6 +61,13 @@ class BladeConfig(_Frozen):
         except ParameterError as exc:
             raise ConfigError(f"blade.parameters: {exc}") from None
 
+    def space(self) -> ParameterSpace:
+        """The optimisation space (raises ConfigError naming a bad bound or fixed value)."""
+        try:
+            return ParameterSpace.default(self.mode, self.continuity, self.bounds, self.fixed)
+        except ParameterError as exc:
+            raise ConfigError(f"blade.bounds/fixed: {exc}") from None
+
 
 class Config(_Frozen):
     """A whole configuration file."""
@@ -64,8 +75,11 @@ class Config(_Frozen):
     blade: BladeConfig = BladeConfig()
 
 
-def load_config(path: str | Path | None = None, overrides: Sequence[str] = ()) -> Config:
-    """Read ``path`` (or the embedded defaults if ``None``), apply ``KEY=VALUE`` overrides, validate."""
+def load_config(path: str | Path | None = None, overrides: Sequence[str] = (), blade_values: bool = True) -> Config:
+    """Read ``path`` (or the embedded defaults if ``None``), apply ``KEY=VALUE`` overrides, validate.
+
+    ``blade_values=False`` skips checking ``blade.parameters`` (for commands that need only the space).
+    """
     raw: dict[str, Any] = {}
     if path is not None:
         try:
@@ -86,7 +100,9 @@ def load_config(path: str | Path | None = None, overrides: Sequence[str] = ()) -
         config = Config.model_validate(raw)
     except ValidationError as exc:
         raise ConfigError(_explain(exc)) from None
-    config.blade.spec()  # parameter names and domains are checked here, once
+    if blade_values:
+        config.blade.spec()  # parameter names and domains are checked here, once
+    config.blade.space()
     return config
 
 

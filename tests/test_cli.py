@@ -69,3 +69,17 @@ def test_help_lists_the_profile_command(capsys):
     with pytest.raises(SystemExit):
         main(["--help"])
     assert "profile" in capsys.readouterr().out
+
+
+def test_space_lists_variables_and_fixed_values(capsys):
+    argv = ["space", "--set", "blade.mode=toolpath", "--set", "blade.continuity=G2",
+            "--set", "blade.bounds.R=[0.004, 0.006]", "--set", "blade.fixed.alpha=10"]
+    assert main(argv) == EXIT_OK
+    out = capsys.readouterr().out
+    assert "G2 toolpath blades: 10 design variables" in out
+    assert "[0.004, 0.006]" in out and "fixed 10" in out and "[0.008, 0.011]" in out
+
+
+def test_space_overrides_are_validated(capsys):
+    assert main(["space", "--set", "blade.bounds.alpha=[30, 10]"]) == EXIT_INPUT
+    assert "bounds of 'alpha' must satisfy lower <= upper" in capsys.readouterr().err
