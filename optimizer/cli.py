@@ -1,7 +1,8 @@
 """The ``millfoil`` command line: a thin layer over plain functions.
 
 Exit status: 0 success, 2 bad input (configuration, override, file), 3 the blade is infeasible (its
-constraints are printed; files are still written when the profile could be built).
+constraints are printed; files are still written when the profile could be built), 4 a stage failed
+(the mesh could not be built or is below the quality thresholds; the reason is printed).
 """
 
 from __future__ import annotations
@@ -16,7 +17,7 @@ from pathlib import Path
 from geometry import DEFAULT_TOLERANCE, Mode, evaluate_blade, parameters_of
 from optimizer.config import ConfigError, load_config
 
-EXIT_OK, EXIT_INPUT, EXIT_INFEASIBLE = 0, 2, 3
+EXIT_OK, EXIT_INPUT, EXIT_INFEASIBLE, EXIT_FAILED = 0, 2, 3, 4
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -65,6 +66,30 @@ def _parser() -> argparse.ArgumentParser:
     profile.add_argument("--json", action="store_true", help="print the summary as JSON")
     profile.set_defaults(run=run_profile)
 
+    mesh = sub.add_parser(
+        "mesh",
+        help="mesh the fluid around one blade and report cell counts and quality",
+        description="Build the hybrid mesh around one blade: a structured O-layer of quads between the blade "
+        "and the convex hull of its offset, triangles from there to the rectangular domain. Prints cell "
+        "counts and quality figures; fails (exit 4) if a cell is below the quality thresholds (minimum angle "
+        "15°, scaled Jacobian 0.4), naming the worst cells.",
+        epilog="Examples:\n"
+        "  millfoil mesh --level coarse --plot mesh.png\n"
+        "  millfoil mesh configs/examples/table5_g1_toolpath.yaml --out mesh.msh --set mesh.upstream=8\n"
+        "Mesh options (the 'mesh:' section): docs/meshing.md.",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    mesh.add_argument("config", nargs="?", type=Path, help="YAML file with 'blade:' and optional 'mesh:' "
+                      "sections (default: the embedded Table 4 blade)")
+    mesh.add_argument("--set", dest="overrides", action="append", default=[], metavar="NAME=VALUE",
+                      help="override a value (alpha=25, mesh.half_height=3, ...); repeatable")
+    mesh.add_argument("--level", choices=["coarse", "medium", "fine"],
+                      help="resolution level (default: the config's mesh.level, else medium)")
+    mesh.add_argument("--out", type=Path, metavar="FILE", help="write the mesh (.msh gmsh 2.2, .vtu, ...)")
+    mesh.add_argument("--plot", type=Path, metavar="PNG", help="write a figure: O-layer, leading and trailing edge")
+    mesh.add_argument("--json", action="store_true", help="print the summary as JSON")
+    mesh.set_defaults(run=run_mesh)
+
     space = sub.add_parser(
         "space",
         help="list the parameters of a blade family and its optimisation space",
@@ -77,6 +102,52 @@ def _parser() -> argparse.ArgumentParser:
                        help="override a value, e.g. blade.mode=toolpath or blade.continuity=G2")
     space.set_defaults(run=run_space)
     return parser
+
+
+def run_mesh(args: argparse.Namespace) -> int:
+    from meshing import MeshingError, MeshQualityError, build_mesh, check_quality
+
+    overrides = [*args.overrides, *([f"mesh.level={args.level}"] if args.level else [])]
+    config = load_config(args.config, overrides)
+    result = evaluate_blade(config.blade.spec())
+    if not result.feasible:
+        for c in result.violations:
+            print(f"millfoil: infeasible blade: {c.name}: {c.reason}", file=sys.stderr)
+        return EXIT_INFEASIBLE
+    spec = config.mesh.spec()
+    try:
+        mesh = build_mesh(result.profile, spec)
+        report = check_quality(mesh)
+    except (MeshingError, MeshQualityError) as exc:
+        print(f"millfoil: mesh failed: {exc}", file=sys.stderr)
+        return EXIT_FAILED
+    summary = {"level": spec.level, "points": mesh.n_points, **mesh.cell_counts(), "cells": mesh.n_cells,
+               "first_cell_height_m": mesh.info["first_cell_height"], "layers": mesh.info["layers"],
+               "seconds": mesh.info["time_total"], "quality": report.summary()}
+    if args.out:
+        mesh.write(args.out)
+        summary["file"] = str(args.out)
+    if args.plot:
+        from meshing.plot import plot_mesh
+
+        plot_mesh(mesh, args.plot, result.profile)
+        summary["plot"] = str(args.plot)
+    if args.json:
+        print(json.dumps(summary, indent=2))
+    else:
+        q = summary["quality"]
+        print(f"{spec.level} mesh: {summary['cells']} cells ({summary['quad']} quads, {summary['triangle']} "
+              f"triangles), {summary['points']} nodes, built in {summary['seconds']:.2f} s\n"
+              f"O-layer: {summary['layers']} layers, first cell {summary['first_cell_height_m'] * 1e6:.2f} µm "
+              f"(y+ {spec.y_plus:g} at Re {spec.reynolds(config.blade.spec()['L']):.3g})\n"
+              f"quality: min angle {q['min_angle_min']:.1f}° (threshold 15°), scaled Jacobian "
+              f"{q['scaled_jacobian_min']:.3f} (threshold 0.4), max aspect ratio {q['aspect_ratio_max']:.3g}, "
+              f"max skewness {q['skewness_max']:.3f}, non-orthogonality max {q['non_orthogonality_max']:.1f}° "
+              f"mean {q['non_orthogonality_mean']:.1f}°")
+        for key in ("file", "plot"):
+            if key in summary:
+                print(f"wrote {summary[key]}")
+    return EXIT_OK
 
 
 def run_space(args: argparse.Namespace) -> int:

@@ -10,15 +10,17 @@ are parsed as YAML scalars, so ``0.005`` is a number and ``G1`` a string.
 from __future__ import annotations
 
 import copy
+import dataclasses
 from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 import yaml
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, create_model, field_validator
 
 from geometry import BladeSpec, Continuity, Mode, ParameterError, ParameterSpace
 from geometry.examples import TABLE4_C2_DESIGN
+from meshing import LEVELS, MeshSpec
 
 
 class ConfigError(ValueError):
@@ -69,10 +71,34 @@ class BladeConfig(_Frozen):
             raise ConfigError(f"blade.bounds/fixed: {exc}") from None
 
 
+class _MeshBase(_Frozen):
+    def spec(self) -> MeshSpec:
+        """The mesh specification: the level's preset with the keys given here applied."""
+        changes = {k: v for k, v in self.model_dump().items() if k != "level" and v is not None}
+        try:
+            return MeshSpec.for_level(self.level, **changes)
+        except ValueError as exc:
+            raise ConfigError(f"mesh: {exc}") from None
+
+
+# ``mesh:`` section — the resolution ``level`` and any field of :class:`meshing.MeshSpec` (domain size in
+# chords, offsets, y+, flow speed, viscosity, growth...); a key left out keeps the level's value. Built from
+# MeshSpec's fields so that the two cannot drift apart.
+MeshConfig = create_model(
+    "MeshConfig",
+    __base__=_MeshBase,
+    __doc__="``mesh:`` section: resolution level and MeshSpec overrides (see meshing.MeshSpec).",
+    level=(Literal[tuple(LEVELS)], "medium"),
+    **{f.name: ({"float": float, "int": int}[f.type] | None, None)
+       for f in dataclasses.fields(MeshSpec) if f.name != "level"},
+)
+
+
 class Config(_Frozen):
     """A whole configuration file."""
 
     blade: BladeConfig = BladeConfig()
+    mesh: MeshConfig = MeshConfig()
 
 
 def load_config(path: str | Path | None = None, overrides: Sequence[str] = (), blade_values: bool = True) -> Config:
@@ -92,9 +118,12 @@ def load_config(path: str | Path | None = None, overrides: Sequence[str] = (), b
             raise ConfigError(f"{path} is not valid YAML: {exc}") from None
         if not isinstance(raw, dict):
             raise ConfigError(f"{path} must be a YAML mapping of sections ({', '.join(Config.model_fields)})")
-    # A blade section that names its mode/continuity but not its parameters must not inherit Table 4's.
-    if isinstance(raw.get("blade"), dict) and "parameters" not in raw["blade"]:
-        raw["blade"]["parameters"] = {}
+    # Blade parameters default to Table 4's, except in a blade section that names its own mode or
+    # continuity: those values would belong to another family.
+    blade = raw.setdefault("blade", {})
+    if isinstance(blade, dict) and "parameters" not in blade:
+        own_family = "mode" in blade or "continuity" in blade
+        blade["parameters"] = {} if own_family else dict(TABLE4_C2_DESIGN["parameters"])
     raw = apply_overrides(raw, overrides)
     try:
         config = Config.model_validate(raw)
@@ -103,6 +132,7 @@ def load_config(path: str | Path | None = None, overrides: Sequence[str] = (), b
     if blade_values:
         config.blade.spec()  # parameter names and domains are checked here, once
     config.blade.space()
+    config.mesh.spec()
     return config
 
 
@@ -134,7 +164,7 @@ def _explain(exc: ValidationError) -> str:
         if err["type"] == "extra_forbidden":
             allowed = _allowed_keys(err["loc"][:-1])
             lines.append(f"unknown key '{where}'; allowed: {', '.join(allowed)}")
-        elif err["type"] == "enum":
+        elif err["type"] in ("enum", "literal_error"):
             lines.append(f"'{where}' = {err['input']!r} is not allowed; allowed: {err['ctx']['expected']}")
         else:
             lines.append(f"'{where}': {err['msg']} (got {err['input']!r})")

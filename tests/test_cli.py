@@ -46,7 +46,7 @@ def test_overrides(capsys):
 @pytest.mark.parametrize("argv,message", [
     (["--set", "blade.mode=milling"], "'blade.mode' = 'milling' is not allowed; allowed: 'design' or 'toolpath'"),
     (["--set", "blade.colour=red"], "unknown key 'blade.colour'; allowed: mode, continuity, parameters"),
-    (["--set", "meshing.level=fine"], "unknown key 'meshing'; allowed: blade"),
+    (["--set", "meshing.level=fine"], "unknown key 'meshing'; allowed: blade, mesh"),
     (["--set", "k2=1.0"], "unknown parameter 'k2' for a C2 design blade"),
     (["--set", "alpha"], "must look like KEY=VALUE"),
     (["missing.yaml"], "cannot read configuration file missing.yaml"),
@@ -83,3 +83,26 @@ def test_space_lists_variables_and_fixed_values(capsys):
 def test_space_overrides_are_validated(capsys):
     assert main(["space", "--set", "blade.bounds.alpha=[30, 10]"]) == EXIT_INPUT
     assert "bounds of 'alpha' must satisfy lower <= upper" in capsys.readouterr().err
+
+
+def test_mesh_command_writes_mesh_and_plot(tmp_path, capsys):
+    msh, png = tmp_path / "blade.msh", tmp_path / "blade.png"
+    argv = ["mesh", str(EXAMPLES / "table5_g1_toolpath.yaml"), "--level", "coarse", "--out", str(msh),
+            "--plot", str(png), "--json"]
+    assert main(argv) == EXIT_OK
+    summary = json.loads(capsys.readouterr().out)
+    assert summary["level"] == "coarse" and summary["cells"] == summary["quad"] + summary["triangle"]
+    assert summary["quality"]["min_angle_min"] > 15 and summary["quality"]["scaled_jacobian_min"] > 0.4
+    assert msh.stat().st_size > 0 and png.stat().st_size > 10_000
+
+
+def test_mesh_options_are_validated(capsys):
+    assert main(["mesh", "--set", "mesh.growth=1.5"]) == EXIT_INPUT
+    assert "growth must lie in (1, 1.2]" in capsys.readouterr().err
+    assert main(["mesh", "--set", "mesh.cells=5"]) == EXIT_INPUT
+    assert "unknown key 'mesh.cells'; allowed: level, upstream" in capsys.readouterr().err
+
+
+def test_mesh_of_an_infeasible_blade_says_why(capsys):
+    assert main(["mesh", "--set", "beta1=40"]) == EXIT_INFEASIBLE
+    assert "eq21_inlet" in capsys.readouterr().err

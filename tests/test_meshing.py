@@ -1,0 +1,206 @@
+"""Hybrid mesh around a blade: boundary groups, conservation of area, levels, quality, determinism."""
+
+import numpy as np
+import pytest
+
+from geometry import BladeSpec, ParameterSpace, build_profile, evaluate_blade
+from geometry.examples import TABLE4_C2_DESIGN, TABLE5_G1_TOOLPATH
+from meshing import (
+    BOUNDARY_GROUPS,
+    Mesh2D,
+    MeshQualityError,
+    MeshSpec,
+    build_mesh,
+    cell_quality,
+    check_quality,
+    domain_box,
+    first_cell_height,
+    interior_faces,
+    plot_mesh,
+)
+
+COARSE = MeshSpec.for_level("coarse")
+
+
+def profile_of(example):
+    return build_profile(BladeSpec.from_values(example["mode"], example["continuity"], example["parameters"]))
+
+
+@pytest.fixture(scope="module", params=[TABLE4_C2_DESIGN, TABLE5_G1_TOOLPATH],
+                ids=["table4_design", "table5_toolpath"])
+def case(request):
+    profile = profile_of(request.param)
+    return profile, build_mesh(profile, COARSE)
+
+
+def boundary_loops(edges: np.ndarray) -> list[list[int]]:
+    """Chain directed edges into closed loops; fails if a node does not have one edge in and one out."""
+    nxt = dict(zip(edges[:, 0].tolist(), edges[:, 1].tolist(), strict=True))
+    assert len(nxt) == len(edges), "a node starts two boundary edges"
+    assert sorted(nxt) == sorted(edges[:, 1].tolist()), "a boundary node lacks an incoming or outgoing edge"
+    loops, seen = [], set()
+    for start in nxt:
+        if start in seen:
+            continue
+        loop, node = [], start
+        while node not in seen:
+            seen.add(node)
+            loop.append(node)
+            node = nxt[node]
+        assert node == start, "open boundary chain"
+        loops.append(loop)
+    return loops
+
+
+def test_groups_present_and_boundary_loops_closed(case):
+    _, mesh = case
+    assert set(mesh.boundary) == set(BOUNDARY_GROUPS)
+    assert all(len(mesh.boundary[g]) > 0 for g in BOUNDARY_GROUPS)
+    loops = boundary_loops(np.vstack([mesh.boundary[g] for g in BOUNDARY_GROUPS]))
+    assert len(loops) == 2  # the rectangle and the blade
+    blade_nodes = set(mesh.boundary["blade"].ravel().tolist())
+    assert sum(set(loop) == blade_nodes for loop in loops) == 1
+    # Fluid on the left: the rectangle runs counter-clockwise, the blade clockwise.
+    outer = sum(mesh.boundary_area(g) for g in ("inlet", "outlet", "top", "bottom"))
+    assert outer > 0 and mesh.boundary_area("blade") < 0
+    # The named edges are exactly the faces owned by a single cell.
+    _, _, free = interior_faces(mesh)
+    named = np.sort(np.vstack([mesh.boundary[g] for g in BOUNDARY_GROUPS]), axis=1)
+    assert {tuple(e) for e in free.tolist()} == {tuple(e) for e in named.tolist()}
+
+
+def test_boundary_sides_lie_on_the_rectangle(case):
+    profile, mesh = case
+    x0, x1, y0, y1 = domain_box(profile, COARSE)
+    np.testing.assert_allclose(mesh.points[mesh.boundary["inlet"].ravel(), 0], x0, atol=1e-12)
+    np.testing.assert_allclose(mesh.points[mesh.boundary["outlet"].ravel(), 0], x1, atol=1e-12)
+    np.testing.assert_allclose(mesh.points[mesh.boundary["bottom"].ravel(), 1], y0, atol=1e-12)
+    np.testing.assert_allclose(mesh.points[mesh.boundary["top"].ravel(), 1], y1, atol=1e-12)
+
+
+def test_cell_area_is_domain_minus_blade(case):
+    profile, mesh = case
+    x0, x1, y0, y1 = domain_box(profile, COARSE)
+    domain = (x1 - x0) * (y1 - y0)
+    blade = -mesh.boundary_area("blade")  # the meshed wall polygon
+    assert mesh.total_area() == pytest.approx(domain - blade, rel=1e-9)
+    assert blade == pytest.approx(profile.area, rel=5e-3)  # wall nodes resample the profile
+    assert all((a > 0).all() for a in mesh.cell_areas().values())  # counter-clockwise, none inverted
+
+
+def test_wall_nodes_lie_on_the_profile_and_keep_its_corners(case):
+    import shapely
+
+    profile, mesh = case
+    wall = mesh.points[np.unique(mesh.boundary["blade"])]
+    ring = shapely.LinearRing(profile.points)
+    assert np.max(shapely.distance(ring, shapely.points(wall))) < 1e-9
+    for corner in (profile.points[0], profile.points[profile.te_index]):
+        assert np.min(np.linalg.norm(wall - corner, axis=1)) < 1e-12
+
+
+def test_first_cell_height_and_growth(case):
+    profile, mesh = case
+    h0 = COARSE.first_cell_height(profile.spec["L"])
+    assert h0 == pytest.approx(2.3e-6, rel=0.05)  # water, 10 m/s, 0.1 m chord, y+ = 1
+    assert first_cell_height(2.0, 10.0, 0.1, 1e-6) == pytest.approx(2 * h0)
+    assert mesh.info["first_cell_height"] == h0
+    assert mesh.info["growth_max"] <= COARSE.growth + 1e-9
+    # The first layer: nodes one h0 away from their wall node along the wall normal.
+    blade = np.unique(mesh.boundary["blade"])
+    quads = mesh.cells["quad"]
+    at_wall = np.isin(quads[:, 0], blade) & ~np.isin(quads[:, 1], blade)
+    h = np.linalg.norm(mesh.points[quads[at_wall, 1]] - mesh.points[quads[at_wall, 0]], axis=1)
+    np.testing.assert_allclose(h, h0, rtol=1e-6)
+
+
+def test_quality_within_thresholds(case):
+    _, mesh = case
+    report = check_quality(mesh)
+    summary = report.summary()
+    assert summary["min_angle_min"] > 15.0 and summary["scaled_jacobian_min"] > 0.4
+    assert summary["non_orthogonality_max"] < 70.0
+    assert len(report.min_angle) == mesh.n_cells
+
+
+def test_bad_cells_raise_naming_the_worst():
+    points = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0], [5.0, 0.5], [3.0, 2.0]])  # tri 0: 14°
+    cells = {"quad": np.array([[0, 1, 2, 3]]), "triangle": np.array([[1, 4, 2], [4, 5, 2]])}
+    mesh = Mesh2D(points, cells, {})
+    report = cell_quality(mesh)
+    np.testing.assert_allclose(report.scaled_jacobian[0], 1.0)
+    with pytest.raises(MeshQualityError, match="triangle 0") as err:
+        check_quality(mesh)
+    assert err.value.worst[0] == 1  # global cell numbering: quads first, then triangles
+    check_quality(mesh, min_angle=10.0, min_jacobian=0.2)  # a looser threshold lets it pass
+
+
+def test_perturbed_mesh_raises(case):
+    _, mesh = case
+    quad = mesh.cells["quad"][len(mesh.cells["quad"]) // 2]
+    points = mesh.points.copy()
+    points[quad[2]] = points[quad[0]] + 0.1 * (points[quad[2]] - points[quad[0]])  # fold one cell
+    bad = Mesh2D(points, mesh.cells, mesh.boundary)
+    with pytest.raises(MeshQualityError, match="below the quality thresholds"):
+        check_quality(bad)
+
+
+def test_deterministic():
+    profile = profile_of(TABLE5_G1_TOOLPATH)
+    a, b = build_mesh(profile, COARSE), build_mesh(profile, COARSE)
+    assert np.array_equal(a.points, b.points)
+    for key in a.cells:
+        assert np.array_equal(a.cells[key], b.cells[key])
+    for key in a.boundary:
+        assert np.array_equal(a.boundary[key], b.boundary[key])
+
+
+def test_cell_count_grows_with_level():
+    profile = profile_of(TABLE4_C2_DESIGN)
+    counts = [build_mesh(profile, MeshSpec.for_level(level)).n_cells for level in ("coarse", "medium", "fine")]
+    assert counts[0] < counts[1] < counts[2]
+    assert 3_000 < counts[0] < 10_000 and 12_000 < counts[1] < 30_000 and 50_000 < counts[2] < 120_000
+
+
+@pytest.mark.parametrize("mode,continuity", [("design", "G1"), ("toolpath", "G0"), ("toolpath", "C2")])
+def test_random_feasible_blades_mesh_within_thresholds(mode, continuity):
+    space = ParameterSpace.default(mode, continuity)
+    meshed = 0
+    for x in space.sample(40, np.random.default_rng(3)):
+        result = evaluate_blade(space.spec(x))
+        if not result.feasible:
+            continue
+        check_quality(build_mesh(result.profile, COARSE))
+        meshed += 1
+        if meshed == 2:
+            break
+    assert meshed == 2
+
+
+def test_write_msh_and_vtu(case, tmp_path):
+    import meshio
+
+    _, mesh = case
+    for name in ("mesh.msh", "mesh.vtu"):
+        mesh.write(tmp_path / name)
+        back = meshio.read(tmp_path / name)
+        assert len(back.points) == mesh.n_points
+        counts = {}
+        for block in back.cells:
+            counts[block.type] = counts.get(block.type, 0) + len(block.data)
+        assert counts["quad"] == len(mesh.cells["quad"]) and counts["triangle"] == len(mesh.cells["triangle"])
+        assert counts["line"] == sum(len(e) for e in mesh.boundary.values())
+
+
+def test_plot_zooms_on_the_edges(case, tmp_path):
+    profile, mesh = case
+    plot_mesh(mesh, tmp_path / "mesh.png", profile)
+    assert (tmp_path / "mesh.png").stat().st_size > 10_000
+
+
+def test_spec_validation():
+    with pytest.raises(ValueError, match="growth"):
+        MeshSpec(growth=1.3)
+    with pytest.raises(ValueError, match="unknown mesh level"):
+        MeshSpec.for_level("huge")
+    assert MeshSpec.for_level("fine", y_plus=2.0).y_plus == 2.0
