@@ -1,0 +1,61 @@
+"""Benchmark: steady laminar solver on the lid-driven cavity (Re = 100 by default) vs cell count.
+
+Prints, per mesh, the cell count, mesh + setup time, outer iterations to convergence, time per
+iteration, time to convergence, the process's peak resident memory, and the Ghia RMS error.
+Meshes: unstructured mixed gmsh meshes (quads for x < 0.5, triangles for x > 0.5).
+
+    python bench/bench_solver.py [--n 56 112] [--re 100] [--max-iter 4000]
+
+(``--n 56 112`` gives about 5 000 and 20 000 cells.) BLAS is limited to one thread while iterating.
+"""
+
+from __future__ import annotations
+
+import argparse
+import platform
+import resource
+import sys
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).parents[1]))
+
+from solver.cavity import BOUNDARY_CONDITIONS, cavity_mesh, cavity_settings, compare  # noqa: E402
+from solver.steady import Fluid, Problem, solve_steady  # noqa: E402
+
+
+def bench(n: int, re: int, max_iter: int, kind: str) -> dict:
+    t0 = time.perf_counter()
+    mesh = cavity_mesh(n, kind)
+    t1 = time.perf_counter()
+    problem = Problem.create(mesh, BOUNDARY_CONDITIONS, Fluid(1.0, 1.0 / re))
+    t2 = time.perf_counter()
+    res = solve_steady(problem, cavity_settings(re, max_iter=max_iter))
+    cmp = compare(res, re)
+    return dict(cells=mesh.n_cells, mesh_s=t1 - t0, setup_s=t2 - t1, iterations=res.iterations,
+                per_iter_ms=1e3 * res.wall_time / max(res.iterations, 1), solve_s=res.wall_time,
+                status=res.status, peak_mb=resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
+                rms=cmp.rms)
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--n", type=int, nargs="+", default=[56, 112])
+    ap.add_argument("--re", type=int, default=100, choices=(100, 1000))
+    ap.add_argument("--max-iter", type=int, default=4000)
+    ap.add_argument("--mesh", default="gmsh_mixed", choices=("gmsh_mixed", "gmsh_tri", "structured"))
+    a = ap.parse_args(argv)
+    print(f"# lid-driven cavity Re = {a.re}, {a.mesh}; python {platform.python_version()}, "
+          f"{platform.processor() or platform.machine()}")
+    print(f"{'cells':>8}{'mesh s':>8}{'setup s':>9}{'iters':>7}{'ms/iter':>9}{'solve s':>9}"
+          f"{'peak MB':>9}{'Ghia rms':>10}  status")
+    for n in a.n:
+        r = bench(n, a.re, a.max_iter, a.mesh)
+        print(f"{r['cells']:>8}{r['mesh_s']:>8.2f}{r['setup_s']:>9.3f}{r['iterations']:>7}"
+              f"{r['per_iter_ms']:>9.1f}{r['solve_s']:>9.1f}{r['peak_mb']:>9.0f}{r['rms']:>10.4%}  "
+              f"{r['status']}", flush=True)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,182 @@
+"""Boundary conditions by name, resolved once per mesh into per-boundary-face arrays.
+
+Configure with ``{group: {"type": name, **parameters}}`` (or ``{group: name}``), e.g.::
+
+    {"inlet": {"type": "velocity_inlet", "velocity": (1.0, 0.0)},
+     "outlet": {"type": "pressure_outlet", "p": 0.0},
+     "top": "symmetry", "bottom": "symmetry", "blade": "wall"}
+
+Types (see :data:`BOUNDARY_CONDITIONS`): ``velocity_inlet``, ``pressure_outlet``, ``wall`` (no slip),
+``moving_wall``, ``symmetry``. Every boundary group of the mesh needs a condition.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from .fvmesh import FVMesh
+
+#: Velocity treatment codes per boundary face.
+FIXED, ZERO_GRADIENT, SYMMETRY = 0, 1, 2
+
+
+@dataclass(frozen=True, eq=False)
+class BoundaryData:
+    """Per-boundary-face arrays (``nb`` faces, local index ``face - n_internal``).
+
+    velocity_kind: ``(nb,)`` FIXED / ZERO_GRADIENT / SYMMETRY.
+    u_fixed: ``(nb, 2)`` prescribed velocity on FIXED faces (m/s), 0 elsewhere.
+    p_fixed: ``(nb,)`` True where the static pressure is prescribed (outlets; ``p' = 0`` there).
+    p_value: ``(nb,)`` prescribed pressure there, Pa.
+    p_mean: ``((local faces, target Pa), ...)``: groups whose face pressures follow the interior
+        (zero normal gradient) shifted so that their length-weighted mean is the target.
+    types: ``{group: condition type}`` for reports.
+    """
+
+    velocity_kind: np.ndarray
+    u_fixed: np.ndarray
+    p_fixed: np.ndarray
+    p_value: np.ndarray
+    p_mean: tuple
+    types: dict
+
+    @property
+    def has_fixed_pressure(self) -> bool:
+        return bool(self.p_fixed.any())
+
+    def velocity(self, mesh: FVMesh, u: np.ndarray, grad_u: np.ndarray | None = None) -> np.ndarray:
+        """Velocity at the boundary-face centres ``(nb, 2)`` given cell velocities ``u (nc, 2)``.
+
+        Zero-gradient and symmetry faces take the owner value reconstructed along the face
+        (``u_P + grad_u_P·r_t``, ``r_t`` the tangential part of centroid -> face centre) when the
+        gradient ``grad_u (nc, 2, 2)`` is given: exact for fields with zero normal derivative.
+        """
+        ni = mesh.n_internal
+        o = mesh.owner[ni:]
+        up = u[o]
+        n = mesh.normal[ni:]
+        if grad_u is not None:
+            r = mesh.face_centre[ni:] - mesh.centroid[o]
+            r_t = r - np.einsum("ij,ij->i", r, n)[:, None] * n
+            up = up + np.einsum("fcd,fd->fc", grad_u[o], r_t)
+        sym = up - np.einsum("ij,ij->i", up, n)[:, None] * n
+        k = self.velocity_kind[:, None]
+        return np.where(k == FIXED, self.u_fixed, np.where(k == SYMMETRY, sym, up))
+
+    def pressure(self, mesh: FVMesh, p: np.ndarray, grad_p: np.ndarray | None) -> np.ndarray:
+        """Pressure at the boundary-face centres ``(nb,)``: prescribed, else extrapolated from the owner
+        cell with its gradient (zero normal gradient if ``grad_p`` is None)."""
+        ni = mesh.n_internal
+        o = mesh.owner[ni:]
+        pb = p[o].copy()
+        if grad_p is not None:
+            pb += np.einsum("ij,ij->i", grad_p[o], mesh.face_centre[ni:] - mesh.centroid[o])
+        out = np.where(self.p_fixed, self.p_value, pb)
+        for j, target in self.p_mean:
+            f = ni + j
+            prof = p[o[j]]
+            if grad_p is not None:       # zero normal gradient: reconstruct along the face only
+                r = mesh.face_centre[f] - mesh.centroid[o[j]]
+                n = mesh.normal[f]
+                prof = prof + np.einsum("ij,ij->i", grad_p[o[j]], r - np.einsum("ij,ij->i", r, n)[:, None] * n)
+            w = mesh.length[f]
+            out[j] = prof - np.dot(w, prof) / w.sum() + target
+        return out
+
+
+# ----------------------------------------------------------------------------------------- conditions
+@dataclass
+class _Arrays:
+    """Mutable arrays filled by the conditions while :func:`resolve_boundaries` runs."""
+
+    velocity_kind: np.ndarray
+    u_fixed: np.ndarray
+    p_fixed: np.ndarray
+    p_value: np.ndarray
+    p_mean: list
+
+
+def _tangential(mesh, j, vel):
+    n = mesh.normal[mesh.n_internal + j]
+    return vel - np.einsum("ij,ij->i", vel, n)[:, None] * n
+
+
+def velocity_inlet(mesh: FVMesh, j: np.ndarray, arr: _Arrays, velocity=(1.0, 0.0), profile=None):
+    """Prescribed velocity (m/s): uniform ``velocity`` or ``profile(xy (k, 2)) -> (k, 2)`` at face centres;
+    pressure zero-gradient (extrapolated)."""
+    xy = mesh.face_centre[mesh.n_internal + j]
+    vel = np.asarray(profile(xy), float) if profile is not None else np.broadcast_to(velocity, xy.shape)
+    arr.velocity_kind[j] = FIXED
+    arr.u_fixed[j] = vel
+
+
+def pressure_outlet(mesh: FVMesh, j: np.ndarray, arr: _Arrays, p=0.0, mode="fixed"):
+    """Outlet at static pressure ``p`` (Pa); velocity zero-gradient (backflow lagged).
+
+    mode ``"fixed"``: ``p`` on every face. ``"mean"``: the face pressures follow the interior (zero
+    normal gradient) and are shifted so that their length-weighted mean is ``p`` (Schäfer–Turek's
+    zero-average outflow pressure).
+    """
+    if mode not in ("fixed", "mean"):
+        raise ValueError(f"pressure_outlet mode {mode!r}: 'fixed' or 'mean'")
+    arr.velocity_kind[j] = ZERO_GRADIENT
+    arr.p_fixed[j] = True
+    arr.p_value[j] = p
+    if mode == "mean":
+        arr.p_mean.append((j, float(p)))
+
+
+def wall(mesh: FVMesh, j: np.ndarray, arr: _Arrays):
+    """No-slip stationary wall: u = 0; pressure zero-gradient."""
+    arr.velocity_kind[j] = FIXED
+    arr.u_fixed[j] = 0.0
+
+
+def moving_wall(mesh: FVMesh, j: np.ndarray, arr: _Arrays, velocity=(1.0, 0.0)):
+    """Wall sliding in its own plane: the tangential part of ``velocity`` (m/s) is imposed."""
+    arr.velocity_kind[j] = FIXED
+    arr.u_fixed[j] = _tangential(mesh, j, np.broadcast_to(np.asarray(velocity, float), (j.size, 2)))
+
+
+def symmetry(mesh: FVMesh, j: np.ndarray, arr: _Arrays):
+    """Symmetry plane: zero normal velocity and flux, zero normal gradient of the tangential velocity."""
+    arr.velocity_kind[j] = SYMMETRY
+
+
+#: Boundary conditions by type name: ``f(mesh, local_faces, arrays, **parameters)``.
+BOUNDARY_CONDITIONS: dict[str, Callable] = {
+    "velocity_inlet": velocity_inlet,
+    "pressure_outlet": pressure_outlet,
+    "wall": wall,
+    "no_slip_wall": wall,
+    "moving_wall": moving_wall,
+    "symmetry": symmetry,
+}
+
+
+def resolve_boundaries(mesh: FVMesh, config: dict) -> BoundaryData:
+    """Apply ``{group: {"type": ..., **params}}`` to the mesh's boundary groups (once per mesh)."""
+    nb = mesh.n_boundary
+    arr = _Arrays(np.full(nb, -1), np.zeros((nb, 2)), np.zeros(nb, bool), np.zeros(nb), [])
+    missing = [g for g in mesh.group_names if g not in config]
+    if missing:
+        raise ValueError(f"no boundary condition for groups {missing}")
+    extra = [g for g in config if g not in mesh.group_names]
+    if extra:
+        raise ValueError(f"boundary conditions for groups not in the mesh: {extra} "
+                         f"(mesh groups: {list(mesh.group_names)})")
+    types = {}
+    for group, spec in config.items():
+        spec = {"type": spec} if isinstance(spec, str) else dict(spec)
+        kind = spec.pop("type")
+        try:
+            fn = BOUNDARY_CONDITIONS[kind]
+        except KeyError:
+            raise ValueError(f"group {group!r}: unknown boundary condition {kind!r}; choose from "
+                             f"{sorted(BOUNDARY_CONDITIONS)}") from None
+        fn(mesh, mesh.boundary_local(group), arr, **spec)
+        types[group] = kind
+    return BoundaryData(arr.velocity_kind, arr.u_fixed, arr.p_fixed, arr.p_value, tuple(arr.p_mean), types)
