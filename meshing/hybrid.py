@@ -11,7 +11,8 @@ Topology (Vessaz et al. 2013, §3.2):
    In a doubly connected region such a function has no critical point, so its field lines never cross,
    leave the wall orthogonally and all reach the hull, whatever the camber: this is what makes the
    O-layer robust. Near the wall each ray is a straight segment along the wall normal (orthogonal
-   boundary-layer cells); convex sharp corners get a fan of rays (a few triangles at the wall).
+   boundary-layer cells) that then turns smoothly into the field direction (no kink, see
+   :func:`trace_rays`); convex sharp corners get a fan of rays (a few triangles at the wall).
 4. Along every ray the layers follow a geometric progression from the first-cell height given by the
    target y+ (:meth:`MeshSpec.first_cell_height`) to the hull; the number of layers is common to all rays
    and set by the longest one with the largest growth ratio ``growth`` (shorter rays grow slower).
@@ -40,6 +41,7 @@ CORNER_TURN_DEG = 25.0  # a profile point turning more than this (degrees) is a 
 FAN_TURN_DEG = 60.0  # convex corners turning more than this get a fan of rays
 FAN_SECTOR_DEG = 50.0  # largest angle between two rays of a fan
 WALL_STRAIGHT = 0.5  # straight normal part of each ray, in local wall spacings
+WALL_BLEND = 3.0  # each ray then turns into the field direction over this many straight lengths
 PHI_STEPS = 120  # integration steps along each ray
 FEM_HULL_SIZE = 0.02  # auxiliary triangulation size on the hull, chords
 RING_SMOOTH = 1.5  # Gaussian smoothing of the ring spacing, rays
@@ -330,11 +332,17 @@ def ray_starts(wall: np.ndarray, is_corner: np.ndarray) -> tuple[np.ndarray, np.
 
 
 def trace_rays(field: _FieldInterpolator, phi: np.ndarray, grad: np.ndarray, start: np.ndarray,
+               direction: np.ndarray | None = None, blend: np.ndarray | float = 0.0,
                steps: int = PHI_STEPS) -> np.ndarray:
     """Field lines of phi from ``start`` (r, 2) to phi = 1: (r, steps + 1, 2) points, m.
 
-    Integrates dx/dphi = grad/|grad|² (midpoint rule) over phi values growing geometrically from the
-    start value to 1; outside the triangulation the last gradient is kept.
+    Integrates dx/dphi = t/(t.grad) (midpoint rule) over phi values growing geometrically from the start
+    value to 1; outside the triangulation the last gradient is kept. ``t`` is the unit field direction,
+    except over the first ``blend`` (m, per ray) of arc length, where it turns smoothly from ``direction``
+    (the ray's straight start) to it: ``t ∝ (1 - w) direction + w grad/|grad|``, ``w`` a smoothstep of the
+    arc length. Near a sharp corner the field lines bend towards the corner bisector, away from the fan's
+    straight rays (by ~65° at a 10° wedge): turning abruptly there would kink the ray and make a wedge of
+    the thin quad beside it.
     """
     vals = np.column_stack([phi, grad])
     v, inside = field(start, vals)
@@ -345,17 +353,24 @@ def trace_rays(field: _FieldInterpolator, phi: np.ndarray, grad: np.ndarray, sta
     out = np.empty((len(start), steps + 1, 2))
     out[:, 0] = x = start
     last = v[:, 1:]
+    d0 = np.zeros_like(start) if direction is None else direction
+    blend = np.broadcast_to(np.asarray(blend, dtype=float), (len(start),))
+    s = np.zeros(len(start))  # arc length from the start
 
-    def velocity(pts, last):
+    def velocity(pts, s, last):
         g, ok = field(pts, vals)
         g = np.where(ok[:, None], g[:, 1:], last)
-        return g / np.maximum(np.sum(g * g, axis=1), 1e-300)[:, None], g
+        u = np.clip(s / np.maximum(blend, 1e-300), 0.0, 1.0)
+        w = np.where(blend > 0, u * u * (3.0 - 2.0 * u), 1.0)[:, None]
+        t = (1.0 - w) * d0 + w * g / np.maximum(np.linalg.norm(g, axis=1), 1e-300)[:, None]
+        return t / np.maximum(np.sum(t * g, axis=1), 1e-300)[:, None], g
 
     for i in range(steps):
         dphi = (levels[:, i + 1] - levels[:, i])[:, None]
-        f1, last = velocity(x, last)
-        f2, last = velocity(x + 0.5 * dphi * f1, last)
+        f1, last = velocity(x, s, last)
+        f2, last = velocity(x + 0.5 * dphi * f1, s + 0.5 * np.linalg.norm(dphi * f1, axis=1), last)
         x = x + dphi * f2
+        s = s + np.linalg.norm(dphi * f2, axis=1)
         out[:, i + 1] = x
     return out
 
@@ -451,7 +466,7 @@ def o_layer(profile, spec: MeshSpec, gmsh) -> dict:
 
     node, direction, straight = ray_starts(wall, is_corner)
     start = wall[node] + straight[:, None] * direction
-    traced = trace_rays(field, phi, grad, start)
+    traced = trace_rays(field, phi, grad, start, direction, WALL_BLEND * straight)
     # Land every ray on the hull (the integration ends within the discretisation error of it).
     ring = shapely.LinearRing(np.vstack([hull_pts, hull_pts[:1]]))
     where = shapely.line_locate_point(ring, shapely.points(traced[:, -1]))

@@ -204,3 +204,19 @@ def test_spec_validation():
     with pytest.raises(ValueError, match="unknown mesh level"):
         MeshSpec.for_level("huge")
     assert MeshSpec.for_level("fine", y_plus=2.0).y_plus == 2.0
+
+
+def test_sharp_leading_edge_fan_rays_turn_smoothly():
+    """A G0 tool path with a ~10° leading-edge wedge (bench sweep): the fan's last ray used to kink by ~65°
+    where its straight part met the field line, making a quad with scaled Jacobian 0.395 at medium."""
+    values = {"L": 0.1, "alpha": -2.3450748970232063, "beta1": -3.3346406298029905,
+              "beta1bar": 34.904135393777345, "u_s1": 0.05545520146762559, "u_s2": 0.30621013205189723,
+              "d_s1": 0.009516768934614029, "d_s2": 0.006545306812336067, "d_s3": 0.03190649602985245,
+              "d_s4": 0.002, "u_p1": 0.04439536366390561, "u_p2": 0.21296242246079378,
+              "d_p1": 0.010617559734537256, "d_p2": 0.005938933901197068, "d_p3": 0.042361935166918344,
+              "d_p4": 0.002, "R": 0.005}
+    profile = build_profile(BladeSpec.from_values("toolpath", "G0", values))
+    mesh = build_mesh(profile, MeshSpec.for_level("medium"))
+    report = check_quality(mesh)
+    quads = report.cell_type == "quad"
+    assert report.scaled_jacobian[quads].min() > 0.6 and report.min_angle[quads].min() > 40.0
