@@ -134,21 +134,18 @@ _ABSENT: dict[Continuity, frozenset[str]] = {
 
 
 def parse_mode(value: str) -> Mode:
-    try:
-        return Mode(str(value).lower())
-    except ValueError:
-        raise ParameterError(
-            f"unknown mode {value!r}; allowed: {', '.join(m.value for m in Mode)}"
-        ) from None
+    return _parse_choice(Mode, "mode", str(value).lower())
 
 
 def parse_continuity(value: str) -> Continuity:
+    return _parse_choice(Continuity, "continuity", str(value).upper())
+
+
+def _parse_choice(kind, what: str, value: str):
     try:
-        return Continuity(str(value).upper())
+        return kind(value)
     except ValueError:
-        raise ParameterError(
-            f"unknown continuity {value!r}; allowed: {', '.join(c.value for c in Continuity)}"
-        ) from None
+        raise ParameterError(f"unknown {what} {value!r}; allowed: {', '.join(k.value for k in kind)}") from None
 
 
 def parameters_of(mode: Mode | str, continuity: Continuity | str) -> dict[str, Parameter]:
