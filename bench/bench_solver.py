@@ -5,6 +5,7 @@ iteration, time to convergence, the process's peak resident memory, and the Ghia
 Meshes: unstructured mixed gmsh meshes (quads for x < 0.5, triangles for x > 0.5).
 
     python bench/bench_solver.py [--n 56 112] [--re 100] [--max-iter 4000]
+    python bench/bench_solver.py --case cylinder --n 12 24 48     # DFG 2D-1, n = cells per cylinder quarter
 
 (``--n 56 112`` gives about 5 000 and 20 000 cells.) BLAS is limited to one thread while iterating.
 """
@@ -38,19 +39,40 @@ def bench(n: int, re: int, max_iter: int, kind: str) -> dict:
                 rms=cmp.rms)
 
 
+def bench_cylinder(n_quarter: int, max_iter: int) -> dict:
+    """DFG 2D-1 on :func:`solver.gmsh_meshes.dfg_cylinder` with ``n_quarter`` cells per cylinder quarter
+    and the far-field size scaled with it (``h_far = 0.3 / n_quarter`` m); ``rms`` is the C_D error."""
+    from solver.cylinder import BOUNDARY_CONDITIONS as CYL_BC, FLUID, coefficients, cylinder_settings, errors
+    from solver.gmsh_meshes import dfg_cylinder
+
+    t0 = time.perf_counter()
+    mesh = dfg_cylinder(n_quarter, h_far=0.3 / n_quarter)
+    t1 = time.perf_counter()
+    problem = Problem.create(mesh, CYL_BC, FLUID)
+    t2 = time.perf_counter()
+    res = solve_steady(problem, cylinder_settings(max_iter=max_iter))
+    return dict(cells=mesh.n_cells, mesh_s=t1 - t0, setup_s=t2 - t1, iterations=res.iterations,
+                per_iter_ms=1e3 * res.wall_time / max(res.iterations, 1), solve_s=res.wall_time,
+                status=res.status, peak_mb=resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
+                rms=errors(coefficients(res))["C_D"])
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--case", default="cavity", choices=("cavity", "cylinder"))
     ap.add_argument("--n", type=int, nargs="+", default=[56, 112])
     ap.add_argument("--re", type=int, default=100, choices=(100, 1000))
     ap.add_argument("--max-iter", type=int, default=4000)
     ap.add_argument("--mesh", default="gmsh_mixed", choices=("gmsh_mixed", "gmsh_tri", "structured"))
     a = ap.parse_args(argv)
-    print(f"# lid-driven cavity Re = {a.re}, {a.mesh}; python {platform.python_version()}, "
+    title = "DFG 2D-1 cylinder (last column: C_D error)" if a.case == "cylinder" else \
+        f"lid-driven cavity Re = {a.re}, {a.mesh}"
+    print(f"# {title}; python {platform.python_version()}, "
           f"{platform.processor() or platform.machine()}")
     print(f"{'cells':>8}{'mesh s':>8}{'setup s':>9}{'iters':>7}{'ms/iter':>9}{'solve s':>9}"
-          f"{'peak MB':>9}{'Ghia rms':>10}  status")
+          f"{'peak MB':>9}{'C_D err' if a.case == 'cylinder' else 'Ghia rms':>10}  status")
     for n in a.n:
-        r = bench(n, a.re, a.max_iter, a.mesh)
+        r = bench_cylinder(n, a.max_iter) if a.case == "cylinder" else bench(n, a.re, a.max_iter, a.mesh)
         print(f"{r['cells']:>8}{r['mesh_s']:>8.2f}{r['setup_s']:>9.3f}{r['iterations']:>7}"
               f"{r['per_iter_ms']:>9.1f}{r['solve_s']:>9.1f}{r['peak_mb']:>9.0f}{r['rms']:>10.4%}  "
               f"{r['status']}", flush=True)

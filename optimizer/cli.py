@@ -54,11 +54,7 @@ def _parser() -> argparse.ArgumentParser:
         "Parameters and their units: docs/geometry.md.",
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    profile.add_argument("config", nargs="?", type=Path, help="YAML file with a 'blade:' section "
-                         "(default: the embedded Table 4 blade)")
-    profile.add_argument("--set", dest="overrides", action="append", default=[], metavar="NAME=VALUE",
-                         help="override a value: a blade parameter (alpha=25, in m or deg) or a dotted key "
-                         "(blade.mode=toolpath); repeatable")
+    _config_arguments(profile)
     profile.add_argument("--out", type=Path, metavar="CSV", help="write the profile points (x,y in m)")
     profile.add_argument("--plot", type=Path, metavar="PNG", help="write a figure of the blade")
     profile.add_argument("--tolerance", type=float, default=DEFAULT_TOLERANCE, metavar="M",
@@ -79,16 +75,29 @@ def _parser() -> argparse.ArgumentParser:
         "Mesh options (the 'mesh:' section): docs/meshing.md.",
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    mesh.add_argument("config", nargs="?", type=Path, help="YAML file with 'blade:' and optional 'mesh:' "
-                      "sections (default: the embedded Table 4 blade)")
-    mesh.add_argument("--set", dest="overrides", action="append", default=[], metavar="NAME=VALUE",
-                      help="override a value (alpha=25, mesh.half_height=3, ...); repeatable")
+    _config_arguments(mesh)
     mesh.add_argument("--level", choices=["coarse", "medium", "fine"],
                       help="resolution level (default: the config's mesh.level, else medium)")
     mesh.add_argument("--out", type=Path, metavar="FILE", help="write the mesh (.msh gmsh 2.2, .vtu, ...)")
     mesh.add_argument("--plot", type=Path, metavar="PNG", help="write a figure: O-layer, leading and trailing edge")
     mesh.add_argument("--json", action="store_true", help="print the summary as JSON")
     mesh.set_defaults(run=run_mesh)
+
+    validate = sub.add_parser(
+        "validate",
+        help="run a solver validation case and compare it with published data",
+        description="Solve a validation case with the bundled solver and print computed vs reference values "
+        "with the error and the agreed tolerance. Cases: cavity (lid-driven cavity, Re = 100 and 1000, vs "
+        "Ghia et al. 1982), cylinder (Schäfer-Turek DFG 2D-1, Re = 20), mms (manufactured solution, observed "
+        "order of accuracy). 'coarse' is the CI-size run; 'medium'/'fine' give the documented figures.",
+    )
+    validate.add_argument("case", help="cavity, cylinder or mms")
+    validate.add_argument("--level", default="coarse", choices=["coarse", "medium", "fine"],
+                          help="resolution (default coarse)")
+    validate.add_argument("--json", action="store_true",
+                          help="print one JSON object per compared quantity (name, computed, reference, error, "
+                          "tolerance, pass)")
+    validate.set_defaults(run=run_validate)
 
     space = sub.add_parser(
         "space",
@@ -97,9 +106,7 @@ def _parser() -> argparse.ArgumentParser:
         "domain, and the optimisation space: design variables with bounds (Table 6 unless the config's "
         "blade.bounds/blade.fixed change them) and fixed values.",
     )
-    space.add_argument("config", nargs="?", type=Path, help="YAML file (default: embedded defaults)")
-    space.add_argument("--set", dest="overrides", action="append", default=[], metavar="NAME=VALUE",
-                       help="override a value, e.g. blade.mode=toolpath or blade.continuity=G2")
+    _config_arguments(space)
     space.set_defaults(run=run_space)
     return parser
 
@@ -150,6 +157,29 @@ def run_mesh(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+def run_validate(args: argparse.Namespace) -> int:
+    from solver.validation import CASES, run_case
+
+    if args.case not in CASES:
+        raise ConfigError(f"unknown validation case {args.case!r}; allowed: {', '.join(CASES)}")
+    report = run_case(args.case, args.level)
+    if args.json:
+        for c in report.comparisons:
+            print(json.dumps({"name": c.name, "computed": c.computed, "reference": c.reference,
+                              "error": c.error, "tolerance": c.tolerance, "pass": c.passed}))
+    else:
+        print(f"{report.case} ({report.level}): {report.description}")
+        width = max(len(c.name) for c in report.comparisons)
+        print(f"  {'quantity':{width}s} {'computed':>12s} {'reference':>12s} {'error':>10s} {'tolerance':>10s}")
+        for c in report.comparisons:
+            print(f"  {c.name:{width}s} {c.computed:12.6g} {c.reference:12.6g} {c.error:10.4g} {c.tolerance:10.4g}"
+                  f"  {'pass' if c.passed else 'FAIL'}")
+        details = ", ".join(f"{k} {v}" for k, v in report.details.items())
+        print(f"  {details}; {report.seconds:.1f} s")
+        print("PASSED" if report.passed else "FAILED")
+    return EXIT_OK if report.passed else EXIT_FAILED
+
+
 def run_space(args: argparse.Namespace) -> int:
     config = load_config(args.config, args.overrides, blade_values=False)
     blade = config.blade
@@ -166,6 +196,15 @@ def run_space(args: argparse.Namespace) -> int:
         domain = f"{'(' if param.open_low else '['}{lo:g}, {hi:g}]"
         print(f"  {name:9s} {param.unit:4s} {role:24s} {domain:16s} {param.description}")
     return EXIT_OK
+
+
+def _config_arguments(parser: argparse.ArgumentParser) -> None:
+    """The configuration file and ``--set`` overrides that every command reading a config takes."""
+    parser.add_argument("config", nargs="?", type=Path, help="YAML configuration file (default: the embedded "
+                        "defaults, i.e. the Table 4 blade)")
+    parser.add_argument("--set", dest="overrides", action="append", default=[], metavar="NAME=VALUE",
+                        help="override a value: a blade parameter (alpha=25, in m or deg) or a dotted key "
+                        "(blade.mode=toolpath, mesh.level=fine); repeatable")
 
 
 def run_profile(args: argparse.Namespace) -> int:

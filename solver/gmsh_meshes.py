@@ -75,3 +75,102 @@ def _extract(gmsh) -> FVMesh:
     new[used] = np.arange(used.size)
     return build_fvmesh(pts[used], {k: new[v] for k, v in cells.items()},
                         {k: new[v] for k, v in boundary.items()})
+
+
+#: Schäfer–Turek DFG 2D geometry (m): channel length and height, cylinder centre and radius.
+DFG_CHANNEL = (2.2, 0.41)
+DFG_CENTRE = (0.2, 0.2)
+DFG_RADIUS = 0.05
+
+
+def _ring_layers(h_wall: float, h_outer: float, thickness: float) -> tuple[int, float]:
+    """Number of radial layers and geometric growth ratio of a ring of ``thickness`` (m) whose first
+    cell is ``h_wall`` (m) high and whose last cell is about ``h_outer`` (m) high."""
+    from scipy.optimize import brentq
+
+    best = None
+    for n in range(2, 200):
+        def excess(q, n=n):
+            return h_wall * (n if abs(q - 1) < 1e-12 else (q**n - 1) / (q - 1)) - thickness
+        if excess(1.0) > 0:          # even uniform layers of h_wall overfill: fewer layers than n
+            break
+        if excess(3.0) < 0:          # would need more than 3x growth per layer
+            continue
+        q = brentq(excess, 1.0, 3.0)
+        last = h_wall * q ** (n - 1)
+        if best is None or abs(np.log(last / h_outer)) < abs(np.log(best[2] / h_outer)):
+            best = (n, q, last)
+    if best is None:
+        raise ValueError("boundary-layer ring: first cell height exceeds the ring thickness")
+    return best[0], best[1]
+
+
+def dfg_cylinder(n_quarter: int = 16, *, h_far: float = 0.02, ring: float = 0.06, wall_ratio: float = 0.08,
+                 growth: float = 0.05) -> FVMesh:
+    """Schäfer–Turek DFG 2D channel with a cylinder: quad boundary-layer ring + unstructured triangles.
+
+    Channel ``[0, 2.2] x [0, 0.41]`` m, cylinder of radius 0.05 m at (0.2, 0.2). Groups ``inlet``
+    (x = 0), ``outlet`` (x = 2.2), ``walls`` (y = 0 and y = 0.41), ``cylinder``.
+
+    n_quarter: quad cells per quarter of the cylinder (even: mesh nodes lie at the front and rear
+        stagnation points 0.15 and 0.25, the Δp points); ``4 n_quarter`` cells around the cylinder.
+    ring: thickness of the structured quad ring around the cylinder, m; its first cell is
+        ``wall_ratio`` times the arc spacing on the cylinder high, growing geometrically to about the
+        arc spacing at its outer radius.
+    h_far: largest triangle size, m; triangles grow from the ring's outer spacing at ``growth`` m per m
+        of distance from the ring (``h = min(h_far, h_ring + growth d)``).
+    Deterministic (single-threaded gmsh, Frontal-Delaunay).
+    """
+    import gmsh
+
+    if n_quarter % 2:
+        raise ValueError(f"n_quarter must be even, got {n_quarter}")
+    L, H = DFG_CHANNEL
+    cx, cy = DFG_CENTRE
+    r_in, r_out = DFG_RADIUS, DFG_RADIUS + ring
+    h_in = 0.5 * np.pi * r_in / n_quarter
+    h_out = 0.5 * np.pi * r_out / n_quarter
+    n_r, q = _ring_layers(wall_ratio * h_in, h_out, ring)
+    gmsh.initialize(interruptible=False)
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.option.setNumber("General.NumThreads", 1)
+        gmsh.model.add("dfg")
+        g = gmsh.model.geo
+        c = g.addPoint(cx, cy, 0)
+        ang = np.pi / 4 + 0.5 * np.pi * np.arange(4)
+        pin = [g.addPoint(cx + r_in * np.cos(a), cy + r_in * np.sin(a), 0) for a in ang]
+        pout = [g.addPoint(cx + r_out * np.cos(a), cy + r_out * np.sin(a), 0) for a in ang]
+        arc_in = [g.addCircleArc(pin[i], c, pin[(i + 1) % 4]) for i in range(4)]
+        arc_out = [g.addCircleArc(pout[i], c, pout[(i + 1) % 4]) for i in range(4)]
+        radial = [g.addLine(pin[i], pout[i]) for i in range(4)]
+        ring_s = [g.addPlaneSurface([g.addCurveLoop([arc_in[i], radial[(i + 1) % 4], -arc_out[i], -radial[i]])])
+                  for i in range(4)]
+        corners = [g.addPoint(x, y, 0) for x, y in ((0, 0), (L, 0), (L, H), (0, H))]
+        bottom, outlet = g.addLine(corners[0], corners[1]), g.addLine(corners[1], corners[2])
+        top, inlet = g.addLine(corners[2], corners[3]), g.addLine(corners[3], corners[0])
+        outer = g.addPlaneSurface([g.addCurveLoop([bottom, outlet, top, inlet]), g.addCurveLoop(arc_out)])
+        for a in arc_in + arc_out:
+            g.mesh.setTransfiniteCurve(a, n_quarter + 1)
+        for r in radial:
+            g.mesh.setTransfiniteCurve(r, n_r + 1, "Progression", q)
+        for s in ring_s:
+            g.mesh.setTransfiniteSurface(s)
+            g.mesh.setRecombine(2, s)
+        g.synchronize()
+        for name, lines in (("inlet", [inlet]), ("outlet", [outlet]), ("walls", [bottom, top]),
+                            ("cylinder", arc_in)):
+            gmsh.model.addPhysicalGroup(1, lines, name=name)
+        gmsh.model.addPhysicalGroup(2, ring_s + [outer], name="fluid")
+        f = gmsh.model.mesh.field
+        fid = f.add("MathEval")
+        f.setString(fid, "F", f"min({h_far}, {h_out} + {growth} * "
+                              f"max(0, sqrt((x - {cx})^2 + (y - {cy})^2) - {r_out}))")
+        f.setAsBackgroundMesh(fid)
+        for opt in ("MeshSizeExtendFromBoundary", "MeshSizeFromPoints", "MeshSizeFromCurvature"):
+            gmsh.option.setNumber(f"Mesh.{opt}", 0)
+        gmsh.option.setNumber("Mesh.Algorithm", 6)
+        gmsh.model.mesh.generate(2)
+        return _extract(gmsh)
+    finally:
+        gmsh.finalize()
