@@ -106,3 +106,15 @@ def test_mesh_options_are_validated(capsys):
 def test_mesh_of_an_infeasible_blade_says_why(capsys):
     assert main(["mesh", "--set", "beta1=40"]) == EXIT_INFEASIBLE
     assert "eq21_inlet" in capsys.readouterr().err
+
+
+def test_validate_prints_one_json_object_per_quantity(capsys):
+    assert main(["validate", "cylinder", "--json"]) == EXIT_OK
+    rows = [json.loads(line) for line in capsys.readouterr().out.splitlines()]
+    assert {r["name"].split()[0] for r in rows} >= {"C_D", "C_L"}
+    assert all(set(r) == {"name", "computed", "reference", "error", "tolerance", "pass"} and r["pass"] for r in rows)
+
+
+def test_validate_unknown_case(capsys):
+    assert main(["validate", "airfoil"]) == EXIT_INPUT
+    assert "unknown validation case 'airfoil'; allowed: cavity, cylinder, mms" in capsys.readouterr().err
