@@ -3,7 +3,7 @@
 Channel ``[0, 2.2] x [0, 0.41]`` m, cylinder D = 0.1 m at (0.2, 0.2) (:func:`solver.gmsh_meshes.dfg_cylinder`),
 rho = 1 kg/m³, nu = mu = 1e-3; inlet ``u = 4 U_max y (H - y) / H²`` with U_max = 0.3 m/s (U_mean = 0.2 m/s,
 Re = U_mean D / nu = 20); outlet static pressure 0; channel walls and cylinder no-slip. Compared with the
-FeatFlow reference values (``shared/reference/schaefer_turek_cylinder.csv``)::
+FeatFlow reference values (``solver/reference/schaefer_turek_cylinder.csv``)::
 
     C_D = 2 F_x / (rho U_mean² D),  C_L = 2 F_y / (rho U_mean² D),  Δp = p(0.15, 0.2) - p(0.25, 0.2)
 
