@@ -88,15 +88,17 @@ def evaluate_blade(spec: BladeSpec, tolerance: float = DEFAULT_TOLERANCE) -> Bla
 
     if spec.mode is Mode.TOOLPATH:
         constraints.append(_eq22(curves))
-        outline = path_polyline(tool_path_pieces(curves), tolerance)
-        constraints.append(_simple(outline, "cutter path"))
         try:
-            profile = build_profile(spec, tolerance)
+            profile, failure = build_profile(spec, tolerance), None
         except GeometryError as exc:
-            constraints.append(Constraint("machined_intact", _VIOLATED, str(exc)))
-            return BladeResult(spec, None, tuple(constraints))
-        machined = _simple(profile.points, "machined blade")
-        constraints.append(Constraint("machined_intact", machined.value, machined.reason))
+            profile, failure = None, str(exc)
+        outline = profile.tool_path if profile else path_polyline(tool_path_pieces(curves), tolerance)
+        constraints.append(_simple(outline, "cutter path"))
+        if profile is None:
+            constraints.append(Constraint("machined_intact", _VIOLATED, failure))
+        else:
+            machined = _simple(profile.points, "machined blade")
+            constraints.append(Constraint("machined_intact", machined.value, machined.reason))
         return BladeResult(spec, profile, tuple(constraints))
 
     profile = build_profile(spec, tolerance)

@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 import shapely
 
-from geometry.bezier import Array
+from geometry.bezier import Array, BezierCurve
 from geometry.blade import BladeCurves, blade_curves, tool_path_pieces
 from geometry.nbuffer import MachinedBoundary, machine
 from geometry.parameters import BladeSpec, Mode
@@ -147,7 +147,7 @@ def _machined_profile(curves: BladeCurves, tolerance: float, max_spacing: float)
                    machining=result)
 
 
-def path_polyline(pieces, tolerance: float = DEFAULT_TOLERANCE,
+def path_polyline(pieces: list[BezierCurve], tolerance: float = DEFAULT_TOLERANCE,
                   max_spacing: float = DEFAULT_MAX_SPACING) -> Array:
     """Closed polyline through consecutive curves, first point not repeated."""
     return np.vstack([p.points(sample_curve(p, tolerance, max_spacing))[:-1] for p in pieces])
