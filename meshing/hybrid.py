@@ -207,6 +207,17 @@ def _mesh_nodes(gmsh) -> tuple[np.ndarray, np.ndarray]:
     return xy, lookup
 
 
+def _triangulate(gmsh) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Mesh the current model with Frontal-Delaunay triangles sized from the boundary points; returns
+    the nodes (rows), the gmsh-tag -> row lookup and the triangles."""
+    gmsh.option.setNumber("Mesh.Algorithm", 6)
+    gmsh.option.setNumber("Mesh.MeshSizeExtendFromBoundary", 1)
+    gmsh.option.setNumber("Mesh.MeshSizeFromPoints", 1)
+    gmsh.model.mesh.generate(2)
+    xy, lookup = _mesh_nodes(gmsh)
+    return xy, lookup, _triangles(gmsh, lookup)
+
+
 def _triangles(gmsh, lookup: np.ndarray) -> np.ndarray:
     _, node_tags = gmsh.model.mesh.getElementsByType(2)
     return lookup[np.asarray(node_tags, dtype=np.int64)].reshape(-1, 3)
@@ -236,12 +247,7 @@ def harmonic_field(gmsh, wall: np.ndarray, wall_h: np.ndarray, hull_pts: np.ndar
     gmsh.model.addPhysicalGroup(1, wall_lines, 1)
     gmsh.model.addPhysicalGroup(1, hull_lines, 2)
     gmsh.model.addPhysicalGroup(2, [surf], 3)
-    gmsh.option.setNumber("Mesh.Algorithm", 6)
-    gmsh.option.setNumber("Mesh.MeshSizeExtendFromBoundary", 1)
-    gmsh.option.setNumber("Mesh.MeshSizeFromPoints", 1)
-    gmsh.model.mesh.generate(2)
-    xy, lookup = _mesh_nodes(gmsh)
-    tri = _triangles(gmsh, lookup)
+    xy, lookup, tri = _triangulate(gmsh)
     wall_rows = lookup[gmsh.model.mesh.getNodesForPhysicalGroup(1, 1)[0].astype(np.int64)]
     hull_rows = lookup[gmsh.model.mesh.getNodesForPhysicalGroup(1, 2)[0].astype(np.int64)]
     gmsh.model.remove()
@@ -546,13 +552,8 @@ def far_field(gmsh, ring: np.ndarray, box: tuple[float, float, float, float], sp
     fields.setNumber(ext, "SizeMax", far_h)
     fields.setNumber(ext, "Power", 1.0)
     fields.setAsBackgroundMesh(ext)
-    gmsh.option.setNumber("Mesh.Algorithm", 6)
-    gmsh.option.setNumber("Mesh.MeshSizeExtendFromBoundary", 1)
-    gmsh.option.setNumber("Mesh.MeshSizeFromPoints", 1)
     gmsh.option.setNumber("Mesh.MeshSizeFromCurvature", 0)
-    gmsh.model.mesh.generate(2)
-    xy, lookup = _mesh_nodes(gmsh)
-    tri = _triangles(gmsh, lookup)
+    xy, lookup, tri = _triangulate(gmsh)
     ring_rows = _point_node_rows(gmsh, ring_pts, lookup)
     edges = {}
     for name, line in sides.items():

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import contextlib
+
 import numpy as np
 
 from .fvmesh import FVMesh, build_fvmesh
@@ -16,14 +18,8 @@ def gmsh_square(h: float, *, quads: str | bool = False, size: float = 1.0, algor
     conforming quad/triangle interface). ``algorithm``: gmsh 2D algorithm (6 = Frontal-Delaunay).
     Deterministic for given arguments (single-threaded gmsh).
     """
-    import gmsh
-
     quads = {False: "none", True: "all"}.get(quads, quads)
-    gmsh.initialize(interruptible=False)
-    try:
-        gmsh.option.setNumber("General.Terminal", 0)
-        gmsh.option.setNumber("General.NumThreads", 1)
-        gmsh.model.add("square")
+    with _gmsh_model("square") as gmsh:
         g = gmsh.model.geo
         c = 0.5 * size
         p = [g.addPoint(x, y, 0, h) for x, y in
@@ -45,6 +41,19 @@ def gmsh_square(h: float, *, quads: str | bool = False, size: float = 1.0, algor
                 gmsh.model.mesh.setRecombine(2, s)
         gmsh.model.mesh.generate(2)
         return _extract(gmsh)
+
+
+@contextlib.contextmanager
+def _gmsh_model(name: str):
+    """A quiet, single-threaded (hence deterministic) gmsh session with one model; always finalised."""
+    import gmsh
+
+    gmsh.initialize(interruptible=False)
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.option.setNumber("General.NumThreads", 1)
+        gmsh.model.add(name)
+        yield gmsh
     finally:
         gmsh.finalize()
 
@@ -121,8 +130,6 @@ def dfg_cylinder(n_quarter: int = 16, *, h_far: float = 0.02, ring: float = 0.06
         of distance from the ring (``h = min(h_far, h_ring + growth d)``).
     Deterministic (single-threaded gmsh, Frontal-Delaunay).
     """
-    import gmsh
-
     if n_quarter % 2:
         raise ValueError(f"n_quarter must be even, got {n_quarter}")
     L, H = DFG_CHANNEL
@@ -131,11 +138,7 @@ def dfg_cylinder(n_quarter: int = 16, *, h_far: float = 0.02, ring: float = 0.06
     h_in = 0.5 * np.pi * r_in / n_quarter
     h_out = 0.5 * np.pi * r_out / n_quarter
     n_r, q = _ring_layers(wall_ratio * h_in, h_out, ring)
-    gmsh.initialize(interruptible=False)
-    try:
-        gmsh.option.setNumber("General.Terminal", 0)
-        gmsh.option.setNumber("General.NumThreads", 1)
-        gmsh.model.add("dfg")
+    with _gmsh_model("dfg") as gmsh:
         g = gmsh.model.geo
         c = g.addPoint(cx, cy, 0)
         ang = np.pi / 4 + 0.5 * np.pi * np.arange(4)
@@ -172,5 +175,3 @@ def dfg_cylinder(n_quarter: int = 16, *, h_far: float = 0.02, ring: float = 0.06
         gmsh.option.setNumber("Mesh.Algorithm", 6)
         gmsh.model.mesh.generate(2)
         return _extract(gmsh)
-    finally:
-        gmsh.finalize()
