@@ -2,7 +2,9 @@
 
 Exit status: 0 success, 2 bad input (configuration, override, file), 3 the blade is infeasible (its
 constraints are printed; files are still written when the profile could be built), 4 a stage failed
-(the mesh could not be built or is below the quality thresholds; the reason is printed).
+(the mesh could not be built or is below the quality thresholds, or the flow solve diverged; the reason is
+printed). ``millfoil evaluate`` returns 0 whenever the solve ran (its status, possibly ``not_converged``, is
+printed).
 """
 
 from __future__ import annotations
@@ -83,6 +85,34 @@ def _parser() -> argparse.ArgumentParser:
     mesh.add_argument("--json", action="store_true", help="print the summary as JSON")
     mesh.set_defaults(run=run_mesh)
 
+    evaluate = sub.add_parser(
+        "evaluate",
+        help="evaluate one blade: mesh it, solve the flow, report forces, C_L, C_max and convergence",
+        description="Run the whole pipeline for one blade: geometry and feasibility, hybrid mesh and its "
+        "quality check, steady RANS (k-omega SST) or laminar solve, then the figures of the paper: F_X, F_Y "
+        "(N/m and N for the span depth), C_L (Eq. 23), C_max, C_p,min = 1 - C_max²/C0², y+ on the blade, and "
+        "the convergence classification (converged, stationary, oscillating, not_converged, diverged). "
+        "Progress goes to stderr, the results table (or JSON) to stdout. Exit status: 0 solved (check the "
+        "status: not_converged values are unreliable), 2 bad input, 3 infeasible blade, 4 a stage failed "
+        "(mesh below the quality thresholds, diverged solve).",
+        epilog="Examples:\n"
+        "  millfoil evaluate configs/examples/bench_g1_design.yaml --level coarse\n"
+        "  millfoil evaluate my.yaml --set solver.model=laminar --set flow.speed=0.2 --json\n"
+        "  millfoil evaluate my.yaml --save runs/one   # mesh.msh fields.vtu wall.csv result.json config.yaml\n"
+        "What is computed and how: docs/evaluation.md.",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    _config_arguments(evaluate)
+    evaluate.add_argument("--level", choices=["coarse", "medium", "fine"],
+                          help="mesh resolution level (default: the config's mesh.level, else medium)")
+    evaluate.add_argument("--save", type=Path, metavar="DIR", help="write mesh.msh, fields.vtu, wall.csv "
+                          "(side,s,x,y,Cp,cf,yplus), result.json and the resolved config.yaml into DIR")
+    evaluate.add_argument("--json", action="store_true", help="print the results as JSON")
+    evaluate.add_argument("--every", type=int, default=50, metavar="N",
+                          help="print solver progress every N iterations (default 50; 0: never)")
+    evaluate.add_argument("--quiet", action="store_true", help="no progress on stderr")
+    evaluate.set_defaults(run=run_evaluate)
+
     validate = sub.add_parser(
         "validate",
         help="run a solver validation case and compare it with published data",
@@ -121,7 +151,7 @@ def run_mesh(args: argparse.Namespace) -> int:
         for c in result.violations:
             print(f"millfoil: infeasible blade: {c.name}: {c.reason}", file=sys.stderr)
         return EXIT_INFEASIBLE
-    spec = config.mesh.spec()
+    spec = config.mesh_spec()
     try:
         mesh = build_mesh(result.profile, spec)
         report = check_quality(mesh)
@@ -155,6 +185,71 @@ def run_mesh(args: argparse.Namespace) -> int:
             if key in summary:
                 print(f"wrote {summary[key]}")
     return EXIT_OK
+
+
+def run_evaluate(args: argparse.Namespace) -> int:
+    from optimizer.evaluate import evaluate, save
+
+    overrides = [*args.overrides, *([f"mesh.level={args.level}"] if args.level else [])]
+    config = load_config(args.config, overrides)
+    if args.every < 0:
+        raise ConfigError(f"--every must be >= 0, got {args.every}")
+    log = None if args.quiet else (lambda line: print(f"millfoil: {line}", file=sys.stderr, flush=True))
+    ev = evaluate(config, log=log, every=args.every)
+    written = save(ev, config, args.save) if args.save else []
+    if args.json:
+        summary = ev.summary()
+        if written:
+            summary["files"] = [str(p) for p in written]
+        print(json.dumps(summary, indent=2, allow_nan=False))
+    else:
+        print(_describe_evaluation(ev, config))
+        for path in written:
+            print(f"wrote {path}")
+    if ev.status == "infeasible":
+        return EXIT_INFEASIBLE
+    return EXIT_OK if ev.ok else EXIT_FAILED
+
+
+def _describe_evaluation(ev, config) -> str:
+    def num(v, fmt, unit=""):
+        return "-" if v is None else f"{v:{fmt}}{unit}"
+
+    spec = config.mesh_spec()
+    fl = config.flow
+    lines = [f"{config.blade.continuity.value} {config.blade.mode.value} blade, {ev.model} model, {spec.level} mesh, "
+             f"C0 = {fl.speed:g} m/s, rho = {fl.density:g} kg/m³, mu = {fl.viscosity:g} Pa s"]
+    if not ev.ok:
+        lines.append(f"FAILED at stage {ev.stage}: {ev.status}: {ev.message}")
+    else:
+        rows = [("F_X", num(ev.fx, ".6g", " N/m"), num(ev.fx_span, ".6g", f" N over the {ev.span * 1e3:g} mm span")),
+                ("F_Y", num(ev.fy, ".6g", " N/m"), num(ev.fy_span, ".6g", f" N over the {ev.span * 1e3:g} mm span")),
+                ("C_L", num(ev.c_l, ".5g"), "Eq. 23: F_Y / (rho C0²/2 · L · span)"),
+                ("C_max", num(ev.c_max, ".6g", " m/s"), "largest cell-centre velocity magnitude"),
+                ("C_p,min", num(ev.cp_min, ".5g"), "1 - C_max²/C0²"),
+                ("C_p wall min", num(ev.cp_wall_min, ".5g"), "p_ref = inlet mean static pressure"),
+                ("y+ blade", f"max {num(ev.yplus_max, '.3g')}, mean {num(ev.yplus_mean, '.3g')}",
+                 "wall-adjacent cell centres")]
+        width = max(len(r[0]) for r in rows)
+        lines += [f"  {name:{width}s}  {value:30s} {note}" for name, value, note in rows]
+        if ev.values_from and ev.values_from != "final iterate":
+            lines.append(f"  (F_X, F_Y, C_max: {ev.values_from})")
+        for name, why in ev.missing.items():
+            lines.append(f"  {name}: none ({why})")
+        c = ev.classification
+        if c is not None and ev.status != "converged":
+            period = c.dominant_period
+            lines.append(f"  classification over the last {c.window} iterations: {c.status}"
+                         + (f", period {period:.1f} iterations" if period else "") + f"; {c.reason}")
+            for m in c.mean:
+                lines.append(f"    {m:9s} mean {num(c.mean[m], '.6g')}, amplitude {num(c.amplitude[m], '.3g')}, "
+                             f"drift {num(c.drift[m], '+.3g')}  ({c.monitor_status[m]})")
+    times = ", ".join(f"{k} {v:.2f} s" for k, v in ev.seconds.items())
+    lines.append(f"status {ev.status}{' (solver converged)' if ev.converged else ''} after "
+                 f"{num(ev.iterations, 'd')} iterations on {num(ev.cells, 'd')} cells; {times}")
+    if ev.ok:
+        lines.append(ev.message)
+    return "\n".join(lines)
 
 
 def run_validate(args: argparse.Namespace) -> int:

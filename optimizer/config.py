@@ -5,6 +5,10 @@ Every option has a default in code; unknown keys are errors that name the key an
 Command-line overrides ``--set KEY=VALUE`` use dotted paths into the file (``blade.mode=toolpath``); a bare
 name that is not a section key is a blade parameter (``alpha=25`` is ``blade.parameters.alpha=25``). Values
 are parsed as YAML scalars, so ``0.005`` is a number and ``G1`` a string.
+
+Sections: ``blade:`` (:class:`BladeConfig`), ``mesh:`` (``MeshConfig``), ``flow:`` (:class:`FlowConfig`),
+``solver:`` (:class:`SolverConfig`). The mesh's ``flow_speed`` and ``viscosity`` (first-cell height) follow
+``flow:`` unless the ``mesh:`` section sets them: use :meth:`Config.mesh_spec`.
 """
 
 from __future__ import annotations
@@ -94,11 +98,97 @@ MeshConfig = create_model(
 )
 
 
+class FlowConfig(_Frozen):
+    """``flow:`` section — the flow around the blade (Vessaz et al. 2013, §3.2).
+
+    speed: C0, uniform inlet velocity along +x, m/s (10). density: rho, kg/m³, and viscosity: mu, dynamic,
+    Pa s — water at 20 °C (998.2 and 1.002e-3). intensity: inlet turbulence intensity I (0.05, i.e. 5 %);
+    viscosity_ratio: inlet eddy-to-molecular viscosity ratio nu_t/nu (10); both only used by turbulence
+    models. span: the span depth of Eq. 23 ``C_L = F_Y / (rho C0²/2 · L · span)``, m; ``None`` (default)
+    means ``0.04 L`` (the paper's ``0.04 L²``), i.e. 4 mm for L = 0.1 m. Forces per unit span (N/m) times
+    the span give the forces on the blade section (N).
+    """
+
+    speed: float = Field(10.0, gt=0)
+    density: float = Field(998.2, gt=0)
+    viscosity: float = Field(1.002e-3, gt=0)
+    intensity: float = Field(0.05, ge=0, le=1)
+    viscosity_ratio: float = Field(10.0, gt=0)
+    span: float | None = Field(None, gt=0)
+
+    @property
+    def kinematic_viscosity(self) -> float:
+        """nu = mu / rho, m²/s."""
+        return self.viscosity / self.density
+
+    def span_for(self, chord: float) -> float:
+        """The span depth (m) for a blade of chord ``chord`` (m)."""
+        return self.span if self.span is not None else 0.04 * chord
+
+
+class SolverConfig(_Frozen):
+    """``solver:`` section — the flow model and the steady solver (the mesh level is in ``mesh:``).
+
+    model: ``sst`` (k-ω SST, the paper's model) or ``laminar``. wall_treatment: SST wall treatment,
+    ``automatic`` (wall functions blended with the low-Re formulation by y+) or ``low_re`` (resolved
+    to the wall, y+ ~ 1). max_iter: iteration cap. tol: scaled-residual tolerance. monitor_tol,
+    monitor_window: the solver's convergence test on the monitored C_max and blade forces (relative
+    change over that many iterations). classify_window, classify_tol: window (iterations) and relative
+    tolerance of the convergence classification of an unconverged solve (:mod:`solver.convergence`).
+    algorithm: ``simple`` or ``simplec``; alpha_u, alpha_p: momentum and pressure under-relaxation
+    (``alpha_p`` ``None``: 1 for SIMPLEC). Defaults: SIMPLE, 0.7, 0.3 — SIMPLEC (alpha_p = 1) diverged
+    within 3 iterations on the coarse blade mesh at Re = 1e6 (first cell for y+ = 1, aspect ratio
+    ~3 500), laminar and SST alike; at low Re (laminar tests) SIMPLEC with alpha_u = 0.9 is faster.
+    convection: ``linear_upwind`` (second order) or ``upwind``. initial: initial velocity field,
+    ``freestream`` (uniform ``(C0, 0)``, the default) or ``rest`` (zero; diverged at once at Re = 1e6).
+    """
+
+    model: Literal["sst", "laminar"] = "sst"
+    wall_treatment: Literal["automatic", "low_re"] = "automatic"
+    max_iter: int = Field(2000, gt=0)
+    tol: float = Field(1e-6, gt=0)
+    monitor_tol: float = Field(1e-5, gt=0)
+    monitor_window: int = Field(20, ge=2)
+    classify_window: int = Field(200, ge=8)
+    classify_tol: float = Field(1e-3, gt=0)
+    algorithm: Literal["simple", "simplec"] = "simple"
+    alpha_u: float = Field(0.7, gt=0, le=1)
+    alpha_p: float | None = Field(0.3, gt=0, le=1)
+    convection: Literal["linear_upwind", "upwind"] = "linear_upwind"
+    initial: Literal["freestream", "rest"] = "freestream"
+
+    @field_validator("model", "wall_treatment", "algorithm", "convection", "initial", mode="before")
+    @classmethod
+    def _lower(cls, v: Any) -> Any:
+        return v.lower() if isinstance(v, str) else v
+
+
 class Config(_Frozen):
     """A whole configuration file."""
 
     blade: BladeConfig = BladeConfig()
     mesh: MeshConfig = MeshConfig()
+    flow: FlowConfig = FlowConfig()
+    solver: SolverConfig = SolverConfig()
+
+    def mesh_spec(self) -> MeshSpec:
+        """The mesh specification, with ``flow_speed`` and ``viscosity`` (m²/s) taken from ``flow:``
+        unless the ``mesh:`` section sets them."""
+        spec = self.mesh.spec()
+        follow = {"flow_speed": self.flow.speed, "viscosity": self.flow.kinematic_viscosity}
+        changes = {k: v for k, v in follow.items() if getattr(self.mesh, k) is None}
+        try:
+            return spec.with_(**changes)
+        except ValueError as exc:
+            raise ConfigError(f"mesh: {exc}") from None
+
+    def to_yaml(self) -> str:
+        """The resolved configuration as YAML: every value, defaults included, the ``mesh:`` section as
+        the full resolved :class:`meshing.MeshSpec` (so that a change of level presets cannot change it);
+        reading it back gives the same configuration."""
+        data = self.model_dump(mode="json")
+        data["mesh"] = dataclasses.asdict(self.mesh_spec())
+        return yaml.safe_dump(data, sort_keys=False)
 
 
 def load_config(path: str | Path | None = None, overrides: Sequence[str] = (), blade_values: bool = True) -> Config:
@@ -132,7 +222,7 @@ def load_config(path: str | Path | None = None, overrides: Sequence[str] = (), b
     if blade_values:
         config.blade.spec()  # parameter names and domains are checked here, once
     config.blade.space()
-    config.mesh.spec()
+    config.mesh_spec()
     return config
 
 

@@ -111,7 +111,7 @@ def _amg_cg(system: LinearSystem, tol: float = 1e-2, maxiter: int = 100, state: 
     state = {} if state is None else state
     calls = state.get("calls", 0)
     if "ml" not in state or calls % rebuild_every == 0:
-        state["ml"] = pyamg.smoothed_aggregation_solver(system.A, max_coarse=50)
+        state["ml"] = _seeded(pyamg.smoothed_aggregation_solver, system.A, max_coarse=50)
     state["calls"] = calls + 1
     M = state["ml"].aspreconditioner(cycle="V")
     it = [0]
@@ -120,6 +120,18 @@ def _amg_cg(system: LinearSystem, tol: float = 1e-2, maxiter: int = 100, state: 
                    callback=lambda _x: it.__setitem__(0, it[0] + 1))
     r = np.linalg.norm(system.b - system.A @ x) / (r0 + 1e-300)
     return x, LinearSolverStats(it[0], float(r))
+
+
+def _seeded(fn, *args, **kwargs):
+    """``fn(*args, **kwargs)`` with numpy's global generator seeded, then restored: pyamg's set-up draws
+    random vectors (spectral-radius estimates) from it, which made repeated solves of one case differ
+    in the 3rd-4th digit of the forces."""
+    saved = np.random.get_state()
+    np.random.seed(0)
+    try:
+        return fn(*args, **kwargs)
+    finally:
+        np.random.set_state(saved)
 
 
 def _direct(system: LinearSystem, tol: float = 0.0, maxiter: int = 0, state: dict | None = None):

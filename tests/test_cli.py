@@ -7,7 +7,7 @@ import pytest
 import yaml
 
 from geometry.examples import TABLE4_C2_DESIGN, TABLE5_G1_TOOLPATH
-from optimizer.cli import EXIT_INFEASIBLE, EXIT_INPUT, EXIT_OK, main
+from optimizer.cli import EXIT_FAILED, EXIT_INFEASIBLE, EXIT_INPUT, EXIT_OK, main
 from optimizer.config import ConfigError, load_config
 
 EXAMPLES = Path(__file__).parents[1] / "configs" / "examples"
@@ -118,3 +118,36 @@ def test_validate_prints_one_json_object_per_quantity(capsys):
 def test_validate_unknown_case(capsys):
     assert main(["validate", "airfoil"]) == EXIT_INPUT
     assert "unknown validation case 'airfoil'; allowed: cavity, cylinder, mms" in capsys.readouterr().err
+
+
+# ------------------------------------------------------------------------------------- evaluate
+_LAMINAR_RE20 = ["--set", "solver.model=laminar", "--set", "flow.speed=0.2", "--set", "flow.viscosity=0.9982",
+                 "--set", "mesh.half_height=5", "--set", "mesh.y_plus=0.05", "--set", "solver.algorithm=simplec",
+                 "--set", "solver.alpha_u=0.9", "--set", "solver.alpha_p=null", "--set", "solver.tol=1e-5"]
+
+
+def test_evaluate_json_and_save(tmp_path, capsys):
+    out = tmp_path / "run"
+    argv = ["evaluate", str(EXAMPLES / "bench_g1_design.yaml"), "--level", "coarse", *_LAMINAR_RE20,
+            "--json", "--save", str(out), "--every", "100"]
+    assert main(argv) == EXIT_OK
+    captured = capsys.readouterr()
+    summary = json.loads(captured.out)
+    assert summary["status"] == "converged" and summary["converged"] is True
+    for key in ("F_X", "F_Y", "C_L", "C_max", "Cp_min", "yplus_max", "iterations", "cells"):
+        assert isinstance(summary[key], (int, float))
+    assert set(summary["seconds"]) == {"geometry", "mesh", "solve", "post"}
+    assert "millfoil: solve: iteration 100/" in captured.err and "millfoil: mesh: done" in captured.err
+    assert {p.name for p in out.iterdir()} == {"mesh.msh", "fields.vtu", "wall.csv", "result.json", "config.yaml"}
+    assert json.loads((out / "result.json").read_text())["F_Y"] == summary["F_Y"]
+
+
+def test_evaluate_exit_codes(capsys):
+    bench = str(EXAMPLES / "bench_g1_design.yaml")
+    assert main(["evaluate", bench, "--set", "alpha=-5", "--quiet"]) == EXIT_INFEASIBLE
+    assert "FAILED at stage geometry: infeasible" in capsys.readouterr().out
+    assert main(["evaluate", bench, "--set", "solver.modle=sst"]) == EXIT_INPUT
+    assert "unknown key 'solver.modle'" in capsys.readouterr().err
+    assert main(["evaluate", bench, "--level", "coarse", "--quiet", *_LAMINAR_RE20,
+                 "--set", "mesh.y_plus=40"]) == EXIT_FAILED          # first cell thicker than the O-layer
+    assert "FAILED at stage mesh" in capsys.readouterr().out
