@@ -9,13 +9,16 @@ import numpy as np
 from .fvmesh import FVMesh, build_fvmesh
 
 
-def gmsh_square(h: float, *, quads: str | bool = False, size: float = 1.0, algorithm: int = 6) -> FVMesh:
+def gmsh_square(h: float, *, quads: str | bool = False, size: float = 1.0, algorithm: int = 6,
+                refine: int = 0) -> FVMesh:
     """Unstructured mesh of ``[0, size]²`` with target cell size ``h`` (m), groups ``bottom, right, top,
     left``.
 
     quads: ``False``/``"none"``: triangles only; ``True``/``"all"``: recombined into quads;
     ``"left_half"``: quads (recombined) for x < size/2 and triangles for x > size/2 (a mixed mesh with a
     conforming quad/triangle interface). ``algorithm``: gmsh 2D algorithm (6 = Frontal-Delaunay).
+    ``refine``: number of uniform refinements of the generated mesh (each splits every triangle into four
+    similar ones, every quad into four): a systematically refined sequence for order-of-accuracy studies.
     Deterministic for given arguments (single-threaded gmsh).
     """
     quads = {False: "none", True: "all"}.get(quads, quads)
@@ -40,6 +43,8 @@ def gmsh_square(h: float, *, quads: str | bool = False, size: float = 1.0, algor
             if on:
                 gmsh.model.mesh.setRecombine(2, s)
         gmsh.model.mesh.generate(2)
+        for _ in range(refine):
+            gmsh.model.mesh.refine()
         return _extract(gmsh)
 
 

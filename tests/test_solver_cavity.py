@@ -127,19 +127,17 @@ def test_upwind_is_less_accurate(cavity100):
 
 @needs_gmsh
 def test_manufactured_solution_order():
-    """MMS on three unstructured gmsh triangle meshes (~170 / 630 / 2420 cells), mu = 0.1, rho = 1.
-
-    Measured here: velocity order 1.79, pressure 1.24. On 630 / 2420 / 9560 cells
-    (``python -m solver.mms``): velocity 1.81, pressure 1.35 — the pressure is below the 1.5 that
-    issue 4 asks for (known gap: one-sided wall-cell gradients; Stokes flow on uniform quads gives
-    velocity 1.95 and pressure 1.5). The bounds here catch a regression to first order."""
+    """MMS on a 170-cell gmsh triangle mesh and its two uniform refinements (680, 2 720 cells), mu = 0.1,
+    rho = 1: observed orders >= 1.8 (velocity) and >= 1.5 (pressure), measured 2.28 / 2.46. Without the
+    quadratic face mass flux (``solver.pressure.face_velocity``) the pressure stops converging under
+    uniform refinement; a first-order scheme gives orders ~1."""
     from solver.mms import observed_order, run_level
 
-    errs = [run_level(n) for n in (8, 16, 32)]
+    errs = [run_level(r) for r in (0, 1, 2)]
     h = [e.h for e in errs]
     assert all(e.status == "converged" for e in errs)
-    assert observed_order(h, [e.velocity for e in errs]) >= 1.6
-    assert observed_order(h, [e.pressure for e in errs]) >= 1.1
+    assert observed_order(h, [e.velocity for e in errs]) >= 1.8
+    assert observed_order(h, [e.pressure for e in errs]) >= 1.5
 
 
 @pytest.mark.parametrize("mode", ["fixed", "mean"])
