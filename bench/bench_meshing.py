@@ -6,6 +6,9 @@ feasible blades, meshing failures (with their reasons), median and worst meshing
 worst quality figures; writes every record to ``--out`` (JSON lines) so that failures can be reproduced.
 
     python bench/bench_meshing.py --samples 200 --level medium --workers 2 --out runs/bench_meshing.jsonl
+
+``--half-height`` sets the channel half-height (chords; default: the MeshSpec default, 5) to sweep narrow
+channels, e.g. ``--half-height 1``.
 """
 
 from __future__ import annotations
@@ -25,17 +28,18 @@ from meshing import MeshSpec, build_mesh, check_quality
 COMBINATIONS = [(m, c) for m in ("design", "toolpath") for c in ("G0", "G1", "C1", "G2", "C2")]
 
 
-def mesh_one(task: tuple[str, str, list[float], str]) -> dict:
+def mesh_one(task: tuple[str, str, list[float], str, dict]) -> dict:
     """Mesh one blade; never raises: the outcome and its reason are in the record."""
-    mode, continuity, x, level = task
+    mode, continuity, x, level, overrides = task
     spec = ParameterSpace.default(mode, continuity).spec(np.array(x))
-    record = {"mode": mode, "continuity": continuity, "parameters": dict(spec.values), "level": level}
+    record = {"mode": mode, "continuity": continuity, "parameters": dict(spec.values), "level": level,
+              "mesh": overrides}
     result = evaluate_blade(spec)
     if not result.feasible:
         return {**record, "status": "infeasible", "reason": "; ".join(c.name for c in result.violations)}
     start = time.perf_counter()
     try:
-        mesh = build_mesh(result.profile, MeshSpec.for_level(level))
+        mesh = build_mesh(result.profile, MeshSpec.for_level(level, **overrides))
         quality = check_quality(mesh).summary()
     except Exception as exc:  # noqa: BLE001 - a sweep records every failure, whatever its type
         return {**record, "status": "failed", "reason": f"{type(exc).__name__}: {exc}",
@@ -51,14 +55,17 @@ def main() -> None:
     parser.add_argument("--level", default="medium", choices=["coarse", "medium", "fine"])
     parser.add_argument("--seed", type=int, default=2013)
     parser.add_argument("--workers", type=int, default=2, help="processes (gmsh is one per process)")
+    parser.add_argument("--half-height", type=float, default=None,
+                        help="channel half-height, chords (default: the MeshSpec default)")
     parser.add_argument("--out", type=Path, default=Path("runs/bench_meshing.jsonl"))
     parser.add_argument("--modes", nargs="+", default=["design", "toolpath"], choices=["design", "toolpath"],
                         help="restrict the sweep (tool paths are rarely feasible: sweep them with more samples)")
     args = parser.parse_args()
     combinations = [(m, c) for m, c in COMBINATIONS if m in args.modes]
 
+    overrides = {} if args.half_height is None else {"half_height": args.half_height}
     rng = np.random.default_rng(args.seed)
-    tasks = [(m, c, x.tolist(), args.level)
+    tasks = [(m, c, x.tolist(), args.level, overrides)
              for m, c in combinations for x in ParameterSpace.default(m, c).sample(args.samples, rng)]
     args.out.parent.mkdir(parents=True, exist_ok=True)
     start = time.perf_counter()
@@ -70,6 +77,7 @@ def main() -> None:
     wall = time.perf_counter() - start
 
     print(f"# {args.level}, {args.samples} samples per combination, seed {args.seed}, {args.workers} workers, "
+          f"half_height {overrides.get('half_height', MeshSpec().half_height)}, "
           f"{platform.machine()} Python {platform.python_version()}, wall {wall:.0f} s")
     print(f"{'combination':14s} {'feasible':>8s} {'failed':>6s} {'median s':>8s} {'worst s':>7s} "
           f"{'cells':>13s} {'min angle':>9s} {'min sJ':>6s}")

@@ -19,7 +19,10 @@ Topology (Vessaz et al. 2013, §3.2):
    The outer layers' nodes then slide along their layer so that the spacing on the outer ring varies
    smoothly (:func:`even_out_ring`); the near-wall layers are left as they are.
 5. gmsh meshes the region between the O-layer's outer ring (its nodes kept as they are) and the
-   rectangular domain with triangles (frontal-Delaunay, size growing away from the ring).
+   rectangular domain with triangles (frontal-Delaunay, size growing linearly away from the ring up to
+   the far-field size). The rectangle's sides are discretised beforehand with the same size law
+   (:func:`far_field_size`, :func:`side_nodes`), so that in a narrow channel the walls carry the small
+   cells the field asks for next to the O-layer.
 
 Everything is vectorised over nodes and cells; gmsh runs single-threaded so that the same input gives
 the identical mesh. gmsh keeps global state: call :func:`build_mesh` from one thread at a time (use
@@ -30,6 +33,7 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Callable
 
 import numpy as np
 import shapely
@@ -46,6 +50,7 @@ PHI_STEPS = 120  # integration steps along each ray
 FEM_HULL_SIZE = 0.02  # auxiliary triangulation size on the hull, chords
 RING_SMOOTH = 1.5  # Gaussian smoothing of the ring spacing, rays
 RING_BLEND_START = 0.1  # layers nearer the wall than this fraction of the ray are not slid
+FAR_HEIGHT_FRACTION = 0.25  # far-field triangles no larger than this fraction of the channel height
 
 
 class MeshingError(RuntimeError):
@@ -521,34 +526,91 @@ def domain_box(profile, spec: MeshSpec) -> tuple[float, float, float, float]:
             yc - spec.half_height * chord, yc + spec.half_height * chord)
 
 
+def far_field_size(ring: np.ndarray, box: tuple[float, float, float, float], spec: MeshSpec,
+                   chord: float) -> tuple[np.ndarray, float, float, Callable[[np.ndarray], np.ndarray]]:
+    """The far-field size law: ring node sizes (m), the largest size and the grading distance (m), and a
+    vectorised function giving the target triangle size (m) at points (n, 2).
+
+    The size grows linearly with the distance ``d`` from the ring, from the nearest ring node's own
+    spacing ``h_ring`` to the largest size ``h_far`` at ``d = d_max`` (gmsh's "Extend" field):
+    ``h = h_ring + (h_far - h_ring) d / d_max``, ``d_max = (h_far - median(h_ring)) / size_gradient``.
+    ``h_far`` is ``far_size`` chords, capped at ``FAR_HEIGHT_FRACTION`` of the channel height so that a
+    narrow channel still has several cells across it.
+    """
+    from scipy.spatial import cKDTree
+
+    seg = np.linalg.norm(np.roll(ring, -1, axis=0) - ring, axis=1)
+    ring_h = 0.5 * (seg + np.roll(seg, 1))
+    far_h = min(spec.far_size * chord, FAR_HEIGHT_FRACTION * (box[3] - box[2]))
+    far_h = max(far_h, float(ring_h.max()))
+    dist_max = max(far_h - float(np.median(ring_h)), 0.0) / spec.size_gradient
+    tree = cKDTree(ring)
+
+    def size(points: np.ndarray) -> np.ndarray:
+        d, i = tree.query(points)
+        if dist_max <= 0.0:
+            return np.full(len(points), far_h)
+        return np.where(d < dist_max, ring_h[i] + (far_h - ring_h[i]) * d / dist_max, far_h)
+
+    return ring_h, far_h, dist_max, size
+
+
+def side_nodes(p0: np.ndarray, p1: np.ndarray, size: Callable[[np.ndarray], np.ndarray],
+               step: float) -> np.ndarray:
+    """Nodes (m, 2) from ``p0`` to ``p1`` (both included) equidistributed in ``∫ ds / size``; ``size``
+    is sampled every ``step`` (m) at most."""
+    samples = min(max(1000, int(math.ceil(float(np.linalg.norm(p1 - p0)) / step))), 200_000)
+    t = np.linspace(0.0, 1.0, samples + 1)
+    pts = p0[None, :] + t[:, None] * (p1 - p0)[None, :]
+    w = 1.0 / size(pts)
+    length = float(np.linalg.norm(p1 - p0))
+    cum = np.concatenate([[0.0], np.cumsum(0.5 * (w[1:] + w[:-1]) * np.diff(t) * length)])
+    n = max(1, int(round(cum[-1])))
+    tn = np.interp(cum[-1] * np.arange(n + 1) / n, cum, t)
+    tn[0], tn[-1] = 0.0, 1.0
+    return p0[None, :] + tn[:, None] * (p1 - p0)[None, :]
+
+
 def far_field(gmsh, ring: np.ndarray, box: tuple[float, float, float, float], spec: MeshSpec,
               chord: float) -> dict:
     """Triangles between the closed counter-clockwise ``ring`` (its nodes kept) and the rectangle.
+
+    The rectangle's sides are discretised here, with the size law of :func:`far_field_size` (their
+    nodes kept by gmsh): in a narrow channel the walls then carry the small cells the graded field asks
+    for next to the O-layer. Left to gmsh, the sides got the far-field size whatever their distance to
+    the ring (one chord at ``coarse``), and where the coarse front from a wall met the fine one from the
+    ring, slivers appeared (scaled Jacobian down to 0.03 at half_height 0.6).
 
     Returns the gmsh nodes (rows), their triangles, the row of each ring node and the edges of the
     four sides (inlet x = xmin, outlet x = xmax, bottom, top), counter-clockwise.
     """
     geo = gmsh.model.geo
     gmsh.model.add("millfoil_far")
-    seg = np.linalg.norm(np.roll(ring, -1, axis=0) - ring, axis=1)
-    ring_h = 0.5 * (seg + np.roll(seg, 1))
-    far_h = spec.far_size * chord
+    ring_h, far_h, dist_max, size = far_field_size(ring, box, spec, chord)
     x0, x1, y0, y1 = box
-    c = [geo.addPoint(x, y, 0.0, far_h) for x, y in ((x0, y0), (x1, y0), (x1, y1), (x0, y1))]
-    sides = {"bottom": geo.addLine(c[0], c[1]), "outlet": geo.addLine(c[1], c[2]),
-             "top": geo.addLine(c[2], c[3]), "inlet": geo.addLine(c[3], c[0])}
-    outer = geo.addCurveLoop([sides["bottom"], sides["outlet"], sides["top"], sides["inlet"]])
+    lo, hi = ring.min(axis=0), ring.max(axis=0)
+    if not (x0 < lo[0] and hi[0] < x1 and y0 < lo[1] and hi[1] < y1):
+        raise MeshingError(f"the domain {box} does not contain the O-layer (bounds {lo}, {hi}): "
+                           "increase upstream, downstream or half_height")
+    corners = np.array([(x0, y0), (x1, y0), (x1, y1), (x0, y1)])
+    names = ("bottom", "outlet", "top", "inlet")
+    step = 0.5 * float(ring_h.min())
+    polylines = [side_nodes(corners[k], corners[(k + 1) % 4], size, step)[:-1] for k in range(4)]
+    outer_pts = np.vstack(polylines)
+    outer, _, outer_lines = _polygon_loop(gmsh, outer_pts, size(outer_pts), fixed=True)
+    bounds = np.cumsum([0] + [len(p) for p in polylines])
+    sides = {name: outer_lines[bounds[k]:bounds[k + 1]] for k, name in enumerate(names)}
     inner, ring_pts, ring_lines = _polygon_loop(gmsh, ring, ring_h, fixed=True)
     surf = geo.addPlaneSurface([outer, inner])
     geo.synchronize()
     for tag, name in enumerate(("inlet", "outlet", "top", "bottom"), start=1):
-        gmsh.model.addPhysicalGroup(1, [sides[name]], tag, name)
+        gmsh.model.addPhysicalGroup(1, sides[name], tag, name)
     gmsh.model.addPhysicalGroup(2, [surf], 10, "fluid")
     # Sizes grow linearly from the ring's own edge lengths to the far-field size (gmsh "Extend" field).
     fields = gmsh.model.mesh.field
     ext = fields.add("Extend")
     fields.setNumbers(ext, "CurvesList", ring_lines)
-    fields.setNumber(ext, "DistMax", max(far_h - float(np.median(ring_h)), 0.0) / spec.size_gradient)
+    fields.setNumber(ext, "DistMax", dist_max)
     fields.setNumber(ext, "SizeMax", far_h)
     fields.setNumber(ext, "Power", 1.0)
     fields.setAsBackgroundMesh(ext)
@@ -556,9 +618,12 @@ def far_field(gmsh, ring: np.ndarray, box: tuple[float, float, float, float], sp
     xy, lookup, tri = _triangulate(gmsh)
     ring_rows = _point_node_rows(gmsh, ring_pts, lookup)
     edges = {}
-    for name, line in sides.items():
-        _, _, ntags = gmsh.model.mesh.getElements(1, line)
-        edges[name] = lookup[np.asarray(ntags[0], dtype=np.int64)].reshape(-1, 2)
+    for name, lines in sides.items():
+        rows = []
+        for line in lines:
+            _, _, ntags = gmsh.model.mesh.getElements(1, line)
+            rows.append(lookup[np.asarray(ntags[0], dtype=np.int64)].reshape(-1, 2))
+        edges[name] = np.vstack(rows)
     gmsh.model.remove()
     return {"points": xy, "triangles": tri, "ring_rows": ring_rows, "edges": edges}
 

@@ -12,10 +12,11 @@ level      layers  rays    quads      triangles    cells
 =========  ======  ======  =========  ===========  ===============
 coarse     42      84      3 524      ~1 950       ~5 500
 medium     53      224     11 868     ~7 650       ~19 500
-fine       88      484     42 588     ~28 500      ~71 000
+fine       88      484     42 588     ~27 800      ~70 400
 =========  ======  ======  =========  ===========  ===============
 
-Random feasible blades stay within a few per cent of these counts.
+Random feasible blades stay within a few per cent of these counts. A narrower channel has fewer
+triangles (half_height = 1: ~1 450 / ~5 000 / ~18 600).
 """
 
 from __future__ import annotations
@@ -25,8 +26,9 @@ from dataclasses import dataclass, fields, replace
 
 #: Resolution presets (cell counts in the module docstring). ``wall_nodes``: target number of nodes on
 #: the blade wall; ``growth``: largest ratio of consecutive cell heights in the O-layer (≤ 1.2);
-#: ``far_size``: cell size on the rectangular domain boundary, chords; ``size_gradient``: increase of the
-#: triangle size per unit distance from the O-layer; ``max_turn``: largest turning of the wall between
+#: ``far_size``: largest triangle size, chords (capped at a quarter of the channel height, see
+#: :func:`meshing.hybrid.far_field_size`); ``size_gradient``: increase of the triangle size per unit
+#: distance from the O-layer; ``max_turn``: largest turning of the wall between
 #: two wall nodes, degrees.
 LEVELS: dict[str, dict[str, float | int]] = {
     "coarse": {"wall_nodes": 80, "growth": 1.2, "far_size": 1.0, "size_gradient": 0.25, "max_turn": 12.0},

@@ -8,6 +8,7 @@ from geometry.examples import TABLE4_C2_DESIGN, TABLE5_G1_TOOLPATH
 from meshing import (
     BOUNDARY_GROUPS,
     Mesh2D,
+    MeshingError,
     MeshQualityError,
     MeshSpec,
     build_mesh,
@@ -220,3 +221,33 @@ def test_sharp_leading_edge_fan_rays_turn_smoothly():
     report = check_quality(mesh)
     quads = report.cell_type == "quad"
     assert report.scaled_jacobian[quads].min() > 0.6 and report.min_angle[quads].min() > 40.0
+
+
+BENCH_G1_DESIGN = {"L": 0.1, "alpha": 9.013, "beta1": -0.179, "beta1bar": 27.983, "u_s2": 0.23291,
+                   "u_p2": 0.32049, "d_s1": 0.00674, "d_p1": 0.00767, "d_s2": 0.00721, "d_p2": 0.01319,
+                   "d_s3": 0.02225, "d_p3": 0.03083, "d_s4": 0.002, "d_p4": 0.002}
+
+
+@pytest.mark.parametrize("half_height", [0.6, 1.0])
+def test_narrow_channel_passes_quality(half_height):
+    """configs/examples/bench_g1_design.yaml (half_height 1): gmsh used to mesh the top and bottom walls
+    with the far-field size (one chord at coarse) although the graded size field asks for cells a few
+    times smaller there; where the wall's coarse front met the ring's fine one, triangles with scaled
+    Jacobian 0.31-0.39 appeared (0.03 at half_height 0.6). The walls now follow the size field."""
+    profile = build_profile(BladeSpec.from_values("design", "G1", BENCH_G1_DESIGN))
+    spec = MeshSpec.for_level("coarse", half_height=half_height)
+    mesh = build_mesh(profile, spec)
+    summary = check_quality(mesh).summary()
+    assert summary["min_angle_min"] > 25.0 and summary["scaled_jacobian_min"] > 0.5
+    # The walls are graded: fine next to the O-layer, never coarser than a quarter of the channel height.
+    x0, x1, y0, y1 = domain_box(profile, spec)
+    top = mesh.points[mesh.boundary["top"]]
+    assert np.all(top[:, :, 1] == y1)
+    lengths = np.linalg.norm(top[:, 1] - top[:, 0], axis=1)
+    assert lengths.max() <= 0.25 * (y1 - y0) * 1.05 and lengths.min() < 0.5 * lengths.max()
+
+
+def test_domain_too_narrow_for_the_o_layer_raises():
+    profile = build_profile(BladeSpec.from_values("design", "G1", BENCH_G1_DESIGN))
+    with pytest.raises(MeshingError, match="does not contain the O-layer"):
+        build_mesh(profile, MeshSpec.for_level("coarse", half_height=0.2))

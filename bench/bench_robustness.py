@@ -1,0 +1,132 @@
+"""Robustness of one evaluation (geometry → mesh → RANS solve) over random blades of the Table 6 space.
+
+Draws seeded random parameter sets per (mode, continuity), keeps the geometrically feasible ones until
+``--blades`` blades are collected (round robin over the ten families, both modes), evaluates each with
+``optimizer.evaluate.evaluate`` in the paper's flow (the embedded defaults: water, C0 = 10 m/s, 5 %
+inlet turbulence, k-ω SST) at ``--level``, and prints:
+
+* the share of each outcome (``converged``, ``stationary``, ``oscillating``, ``not_converged``,
+  ``diverged``, ``failed``) and the solve time spent per outcome;
+* the lift amplitude and period of the ``oscillating`` ones (relative to their mean lift);
+* a check that no figure is NaN or infinite.
+
+Every record (parameters, status, figures, classification) goes to ``--out`` as JSON lines, so that any
+blade can be re-run on its own (``millfoil evaluate`` with its parameters).
+
+    python bench/bench_robustness.py --blades 50 --level medium --workers 2 --out runs/bench_robustness.jsonl
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import platform
+import time
+from collections import defaultdict
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+
+import numpy as np
+
+COMBINATIONS = [(m, c) for m in ("design", "toolpath") for c in ("G0", "G1", "C1", "G2", "C2")]
+
+
+def draw_blades(n: int, seed: int, max_draws: int = 200_000) -> list[tuple[str, str, dict]]:
+    """``n`` feasible blades ``(mode, continuity, parameters)``, round robin over :data:`COMBINATIONS`."""
+    from geometry import ParameterSpace, evaluate_blade
+
+    rng = np.random.default_rng(seed)
+    spaces = {mc: ParameterSpace.default(*mc) for mc in COMBINATIONS}
+    out, draws, k = [], 0, 0
+    while len(out) < n and draws < max_draws:
+        mode, cont = COMBINATIONS[k % len(COMBINATIONS)]
+        space = spaces[(mode, cont)]
+        spec = space.spec(space.sample(1, rng)[0])
+        draws += 1
+        if evaluate_blade(spec).feasible:
+            out.append((mode, cont, {name: float(v) for name, v in spec.values.items()}))
+            k += 1
+    return out
+
+
+def evaluate_one(task: tuple[str, str, dict, str, int]) -> dict:
+    """Evaluate one blade; never raises: the outcome is in the record."""
+    from optimizer.config import Config
+    from optimizer.evaluate import evaluate
+
+    mode, cont, params, level, max_iter = task
+    raw = {"blade": {"mode": mode, "continuity": cont, "parameters": params}, "mesh": {"level": level}}
+    if max_iter:
+        raw["solver"] = {"max_iter": max_iter}
+    record = {"mode": mode, "continuity": cont, "parameters": params, "level": level}
+    start = time.perf_counter()
+    try:
+        ev = evaluate(Config.model_validate(raw))
+    except Exception as exc:  # noqa: BLE001 - a sweep records every failure, whatever its type
+        return {**record, "status": "failed", "stage": "?", "message": f"{type(exc).__name__}: {exc}",
+                "seconds": time.perf_counter() - start}
+    return {**record, **ev.summary(), "seconds_total": time.perf_counter() - start}
+
+
+def _finite(x) -> bool:
+    if isinstance(x, dict):
+        return all(_finite(v) for v in x.values())
+    if isinstance(x, list | tuple):
+        return all(_finite(v) for v in x)
+    return not isinstance(x, float) or math.isfinite(x)
+
+
+def report(records: list[dict]) -> None:
+    n = len(records)
+    by = defaultdict(list)
+    for r in records:
+        by[r["status"]].append(r)
+    print(f"{n} blades")
+    print(f"  {'status':14s} {'share':>7s} {'solve s (median)':>17s} {'solve s (total)':>16s}")
+    for status, rs in sorted(by.items(), key=lambda kv: -len(kv[1])):
+        t = [r.get("seconds", {}).get("solve", 0.0) if isinstance(r.get("seconds"), dict) else 0.0 for r in rs]
+        print(f"  {status:14s} {len(rs) / n:7.1%} {np.median(t):17.1f} {np.sum(t):16.1f}")
+    osc = by.get("oscillating", [])
+    for r in osc:
+        c = r.get("classification") or {}
+        amp = (c.get("amplitude") or {}).get("fy:blade")
+        mean = (c.get("mean") or {}).get("fy:blade")
+        per = (c.get("period") or {}).get("fy:blade")
+        rel = abs(amp / mean) if amp is not None and mean else None
+        print(f"  oscillating {r['mode']} {r['continuity']}: F_Y mean {mean} N/m, amplitude {amp} N/m"
+              f" ({'-' if rel is None else f'{rel:.1%}'}), period {per} iterations")
+    bad = [r for r in records if not _finite(r)]
+    print(f"non-finite values in {len(bad)} records")
+    for r in by.get("failed", []) + by.get("diverged", []):
+        print(f"  {r['status']} {r['mode']} {r['continuity']} at {r.get('stage')}: {r.get('message')}")
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--blades", type=int, default=50)
+    parser.add_argument("--level", default="medium", choices=["coarse", "medium", "fine"])
+    parser.add_argument("--seed", type=int, default=2013)
+    parser.add_argument("--workers", type=int, default=2)
+    parser.add_argument("--max-iter", type=int, default=0, help="override solver.max_iter (0: config default)")
+    parser.add_argument("--out", type=Path, default=Path("runs/bench_robustness.jsonl"))
+    args = parser.parse_args()
+    blades = draw_blades(args.blades, args.seed)
+    print(f"{platform.node()} {platform.processor() or platform.machine()}, {args.workers} workers, "
+          f"level {args.level}, seed {args.seed}: {len(blades)} feasible blades drawn")
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    tasks = [(m, c, p, args.level, args.max_iter) for m, c, p in blades]
+    records = []
+    with ProcessPoolExecutor(args.workers) as pool, args.out.open("w") as fh:
+        for i, rec in enumerate(pool.map(evaluate_one, tasks), 1):
+            records.append(rec)
+            fh.write(json.dumps(rec, default=str) + "\n")
+            fh.flush()
+            print(f"[{i}/{len(tasks)}] {rec['mode']} {rec['continuity']}: {rec['status']}"
+                  f" F_Y {rec.get('F_Y')} C_max {rec.get('C_max')} ({rec.get('seconds_total', 0):.0f} s)",
+                  flush=True)
+    report(records)
+
+
+if __name__ == "__main__":
+    main()
