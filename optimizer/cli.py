@@ -119,11 +119,15 @@ def _parser() -> argparse.ArgumentParser:
         description="Solve a validation case with the bundled solver and print computed vs reference values "
         "with the error and the agreed tolerance. Cases: cavity (lid-driven cavity, Re = 100 and 1000, vs "
         "Ghia et al. 1982), cylinder (Schäfer-Turek DFG 2D-1, Re = 20), mms (manufactured solution, observed "
-        "order of accuracy). 'coarse' is the CI-size run; 'medium'/'fine' give the documented figures.",
+        "order of accuracy), flatplate (NASA TMR zero-pressure-gradient flat plate, k-omega SST), naca0012 "
+        "(NASA TMR NACA 0012, Re = 6e6, k-omega SST). 'coarse' is the CI-size run; 'medium'/'fine' give the "
+        "documented figures.",
     )
-    validate.add_argument("case", help="cavity, cylinder or mms")
+    validate.add_argument("case", help="cavity, cylinder, mms, flatplate or naca0012")
     validate.add_argument("--level", default="coarse", choices=["coarse", "medium", "fine"],
                           help="resolution (default coarse)")
+    validate.add_argument("--alpha", type=float, default=None, metavar="DEG",
+                          help="angle of attack in degrees (naca0012 only; default: both 0 and 10)")
     validate.add_argument("--json", action="store_true",
                           help="print one JSON object per compared quantity (name, computed, reference, error, "
                           "tolerance, pass)")
@@ -257,7 +261,12 @@ def run_validate(args: argparse.Namespace) -> int:
 
     if args.case not in CASES:
         raise ConfigError(f"unknown validation case {args.case!r}; allowed: {', '.join(CASES)}")
-    report = run_case(args.case, args.level)
+    options = {}
+    if args.alpha is not None:
+        if args.case != "naca0012":
+            raise ConfigError(f"--alpha applies to the naca0012 case only, not {args.case!r}")
+        options["alpha"] = args.alpha
+    report = run_case(args.case, args.level, **options)
     if args.json:
         for c in report.comparisons:
             print(json.dumps({"name": c.name, "computed": c.computed, "reference": c.reference,

@@ -34,6 +34,9 @@ class BoundaryData:
     p_mean: ``((local faces, target Pa), ...)``: groups whose face pressures follow the interior
         (zero normal gradient) shifted so that their length-weighted mean is the target.
     types: ``{group: condition type}`` for reports.
+    turb_intensity, turb_ratio, turb_length: ``(nb,)`` inlet turbulence intensity, eddy-viscosity ratio
+        nu_t/nu and length scale (m) of ``velocity_inlet`` faces (NaN elsewhere; length NaN unless given),
+        read by :mod:`solver.turbulence` only.
     """
 
     velocity_kind: np.ndarray
@@ -42,6 +45,9 @@ class BoundaryData:
     p_value: np.ndarray
     p_mean: tuple
     types: dict
+    turb_intensity: np.ndarray | None = None
+    turb_ratio: np.ndarray | None = None
+    turb_length: np.ndarray | None = None
 
     @property
     def has_fixed_pressure(self) -> bool:
@@ -97,6 +103,9 @@ class _Arrays:
     p_fixed: np.ndarray
     p_value: np.ndarray
     p_mean: list
+    turb_intensity: np.ndarray
+    turb_ratio: np.ndarray
+    turb_length: np.ndarray
 
 
 def _tangential(mesh, j, vel):
@@ -104,13 +113,26 @@ def _tangential(mesh, j, vel):
     return vel - np.einsum("ij,ij->i", vel, n)[:, None] * n
 
 
-def velocity_inlet(mesh: FVMesh, j: np.ndarray, arr: _Arrays, velocity=(1.0, 0.0), profile=None):
+def velocity_inlet(mesh: FVMesh, j: np.ndarray, arr: _Arrays, velocity=(1.0, 0.0), profile=None,
+                   intensity=0.05, viscosity_ratio=10.0, length_scale=None):
     """Prescribed velocity (m/s): uniform ``velocity`` or ``profile(xy (k, 2)) -> (k, 2)`` at face centres;
-    pressure zero-gradient (extrapolated)."""
+    pressure zero-gradient (extrapolated).
+
+    Turbulence (used only with a turbulence model, :mod:`solver.turbulence`): intensity I (default 5 %)
+    and eddy-to-molecular viscosity ratio nu_t/nu (default 10), or a length scale (m) instead of the
+    ratio: ``k = 1.5 (I |U|)²``, ``omega = k/(nu ratio)`` (or ``sqrt(k)/(beta*^0.25 L)``).
+    """
     xy = mesh.face_centre[mesh.n_internal + j]
     vel = np.asarray(profile(xy), float) if profile is not None else np.broadcast_to(velocity, xy.shape)
     arr.velocity_kind[j] = FIXED
     arr.u_fixed[j] = vel
+    if not (intensity >= 0 and viscosity_ratio > 0):
+        raise ValueError(f"velocity_inlet: intensity {intensity!r} must be >= 0 and viscosity_ratio "
+                         f"{viscosity_ratio!r} > 0")
+    arr.turb_intensity[j] = intensity
+    arr.turb_ratio[j] = viscosity_ratio
+    if length_scale is not None:
+        arr.turb_length[j] = length_scale
 
 
 def pressure_outlet(mesh: FVMesh, j: np.ndarray, arr: _Arrays, p=0.0, mode="fixed"):
@@ -160,7 +182,8 @@ BOUNDARY_CONDITIONS: dict[str, Callable] = {
 def resolve_boundaries(mesh: FVMesh, config: dict) -> BoundaryData:
     """Apply ``{group: {"type": ..., **params}}`` to the mesh's boundary groups (once per mesh)."""
     nb = mesh.n_boundary
-    arr = _Arrays(np.full(nb, -1), np.zeros((nb, 2)), np.zeros(nb, bool), np.zeros(nb), [])
+    arr = _Arrays(np.full(nb, -1), np.zeros((nb, 2)), np.zeros(nb, bool), np.zeros(nb), [],
+                  np.full(nb, np.nan), np.full(nb, np.nan), np.full(nb, np.nan))
     missing = [g for g in mesh.group_names if g not in config]
     if missing:
         raise ValueError(f"no boundary condition for groups {missing}")
@@ -179,4 +202,5 @@ def resolve_boundaries(mesh: FVMesh, config: dict) -> BoundaryData:
                              f"{sorted(BOUNDARY_CONDITIONS)}") from None
         fn(mesh, mesh.boundary_local(group), arr, **spec)
         types[group] = kind
-    return BoundaryData(arr.velocity_kind, arr.u_fixed, arr.p_fixed, arr.p_value, tuple(arr.p_mean), types)
+    return BoundaryData(arr.velocity_kind, arr.u_fixed, arr.p_fixed, arr.p_value, tuple(arr.p_mean), types,
+                        arr.turb_intensity, arr.turb_ratio, arr.turb_length)

@@ -9,6 +9,13 @@ Discretisation per cell ``P`` (steady, per unit depth, SI units):
   ``u_f^HO = u_U + psi grad(u)_U·(x_f - x_U)`` (limited gradient), the non-orthogonal diffusion
   ``mu grad(u)_f·T_f`` and the pressure gradient;
 * under-relaxation ``a_P / alpha`` with ``(1 - alpha)/alpha a_P u_old`` in the source.
+
+Variable (turbulent) viscosity: ``mu`` may be a per-face array ``mu + mu_t`` ``(nf,)``; the stress is then
+``mu_eff (grad u + grad u^T)`` and the transpose part ``sum_f mu_f (grad u)_f^T·S_f`` (zero for constant
+``mu`` in incompressible flow, ``grad mu_t · grad u^T`` otherwise) is added explicitly on internal faces.
+On boundary faces it is dropped: on a no-slip wall ``(grad u)^T n`` is ``grad(u·n) = 0``, and inlets,
+outlets and symmetry planes carry negligible normal stress gradients. A scalar ``mu`` (laminar) takes
+exactly the constant-viscosity path.
 """
 
 from __future__ import annotations
@@ -46,13 +53,16 @@ def momentum_system(mesh: FVMesh, pattern: FVPattern, bnd: BoundaryData, u: np.n
     flux: ``(nf,)`` face mass flux owner -> neighbour, kg/(s m);
     grad_u: ``(nc, 2, 2)`` velocity gradient ``[cell, component, direction]``, 1/s (diffusion);
     grad_u_ho: the (limited) gradient used for the convective face values (zeros: pure upwind);
-    grad_p: ``(nc, 2)`` pressure gradient, Pa/m; mu: dynamic viscosity, Pa s; alpha: relaxation factor;
+    grad_p: ``(nc, 2)`` pressure gradient, Pa/m; mu: dynamic viscosity, Pa s: a float, or ``(nf,)`` face
+    values ``mu + mu_t`` (adds the explicit transpose stress); alpha: relaxation factor;
     body_force: ``(nc, 2)`` force per unit volume, N/m³ (explicit source), or None.
     """
     ni, nc = mesh.n_internal, mesh.n_cells
     o, n = mesh.owner[:ni], mesh.neighbour[:ni]
     F = flux[:ni]
-    D = mu * mesh.diff_coeff[:ni]
+    variable = np.ndim(mu) > 0
+    mu_i, mu_b = (mu[:ni], mu[ni:]) if variable else (mu, mu)
+    D = mu_i * mesh.diff_coeff[:ni]
     # implicit: upwind convection + orthogonal diffusion (internal faces)
     upper = np.minimum(F, 0.0) - D
     lower = -np.maximum(F, 0.0) - D
@@ -65,11 +75,16 @@ def momentum_system(mesh: FVMesh, pattern: FVPattern, bnd: BoundaryData, u: np.n
     r_up = np.where((F >= 0)[:, None], xf - mesh.centroid[o], xf - mesh.centroid[n])
     g_up = np.where((F >= 0)[:, None, None], grad_u_ho[o], grad_u_ho[n])
     face = F[:, None] * np.einsum("fcd,fd->fc", g_up, r_up)      # F (u_HO - u_UD)
-    face -= mu * np.einsum("fcd,fd->fc", face_gradient(mesh, grad_u), mesh.t_vec[:ni])
+    g_f = face_gradient(mesh, grad_u)
+    if variable:
+        face -= mu_i[:, None] * (np.einsum("fcd,fd->fc", g_f, mesh.t_vec[:ni])
+                                 + np.einsum("fdc,fd->fc", g_f, mesh.sf[:ni]))
+    else:
+        face -= mu * np.einsum("fcd,fd->fc", g_f, mesh.t_vec[:ni])
     src -= _scatter(o, face, nc)
     src += _scatter(n, face, nc)
     # boundary faces
-    diag_b, src_b, sym_diag = _boundary(mesh, bnd, u, u_b, flux[ni:], grad_u, mu)
+    diag_b, src_b, sym_diag = _boundary(mesh, bnd, u, u_b, flux[ni:], grad_u, mu_b)
     diag = diag + diag_b
     src += src_b
     h1 = -pattern.off_diagonal_row_sum(upper, lower)
@@ -100,7 +115,7 @@ def _boundary(mesh, bnd, u, u_b, Fb, grad_u, mu):
     # fixed velocity: convection F u_b (explicit, known), diffusion Db (u_b - u_P) + mu grad_P·T
     diag_f = np.where(fixed, Db, 0.0) + np.where(zg, np.maximum(Fb, 0.0), 0.0)
     src_f = np.where(fixed[:, None], (Db[:, None] - Fb[:, None]) * u_b
-                     + mu * np.einsum("fcd,fd->fc", grad_u[o], mesh.t_vec[ni:]), 0.0)
+                     + np.reshape(mu, (-1, 1)) * np.einsum("fcd,fd->fc", grad_u[o], mesh.t_vec[ni:]), 0.0)
     # zero-gradient outflow: F u_b with u_b reconstructed along the face; implicit part max(F, 0) u_P
     src_f -= np.where(zg[:, None], Fb[:, None] * u_b - np.maximum(Fb, 0.0)[:, None] * u[o], 0.0)
     # symmetry: wall-normal shear from the normal velocity component only

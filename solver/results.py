@@ -44,6 +44,10 @@ class FlowResults:
     residuals: ``{"u", "v", "continuity": (iterations,)}`` scaled residuals per outer iteration.
     status: one of :data:`STATUSES`; ``message`` says why (for ``diverged``: iteration and variable).
     rho (kg/m³), mu (Pa s): fluid properties used.
+    k (m²/s²), omega (1/s), nu_t (m²/s): ``(nc,)`` turbulence fields (None when laminar).
+    mu_wall: ``(nb,)`` effective viscosity of the boundary faces for the wall shear, Pa s: the molecular
+        ``mu`` except on walls under the ``automatic`` wall treatment (``rho u_tau² dn / |u_t|``, the
+        wall-function shear); None means ``mu`` everywhere. wall_treatment: its name, or None.
     """
 
     mesh: FVMesh
@@ -59,6 +63,11 @@ class FlowResults:
     mu: float
     wall_time: float = 0.0
     monitors: dict = field(default_factory=dict)
+    k: np.ndarray | None = None
+    omega: np.ndarray | None = None
+    nu_t: np.ndarray | None = None
+    mu_wall: np.ndarray | None = None
+    wall_treatment: str | None = None
 
     @property
     def converged(self) -> bool:
@@ -89,20 +98,52 @@ class FlowResults:
         """Force of the fluid on the boundary ``group`` per unit span (N/m).
 
         Pressure part ``sum p_f S_f`` (S outward from the fluid, p extrapolated to the face centre);
-        viscous part ``-sum mu |S| (u_P - u_b)_t / dn`` with the tangential velocity difference over the
-        wall-normal distance ``dn`` of the owner centroid (wall shear from a one-sided difference).
+        viscous part ``sum |S| tau_w`` with the wall shear of :meth:`wall_shear` (laminar and ``low_re``:
+        ``mu (u_P - u_b)_t / dn``, a one-sided difference; ``automatic``: the wall-function shear).
         """
         m = self.mesh
         j = m.boundary_local(group)
         f = m.n_internal + j
         pb = self.boundary_pressure()[j]
         pressure = (pb[:, None] * m.sf[f]).sum(axis=0)
+        mu_w, dn, du_t = self._shear_parts(group)
+        viscous = (mu_w * m.length[f] / dn)[:, None] * du_t
+        return Forces(pressure, viscous.sum(axis=0))
+
+    def wall_faces(self, group: str) -> np.ndarray:
+        """Face centres ``(nfaces, 2)`` of boundary ``group`` in the group's face order, m."""
+        return self.mesh.face_centre[self.mesh.boundary[group]]
+
+    def wall_shear(self, group: str) -> np.ndarray:
+        """Wall shear stress vector ``(nfaces, 2)`` exerted by the fluid on each face of ``group``, Pa:
+        ``mu_w (u_P - u_b)_t / dn`` (tangential velocity of the owner cell relative to the wall over the
+        normal distance of its centroid); ``mu_w`` is ``mu`` (laminar, ``low_re``, where nu_t = 0 at the
+        wall) or the wall-function viscosity ``rho u_tau² dn/|u_t|`` (``automatic``: ``|tau| = rho
+        u_tau²``)."""
+        mu_w, dn, du_t = self._shear_parts(group)
+        return (mu_w / dn)[:, None] * du_t
+
+    def _shear_parts(self, group: str):
+        """``(mu_w, dn, du_t)`` of the faces of ``group``: wall viscosity (scalar or ``(k,)``), owner
+        centroid normal distance ``(k,)`` and tangential velocity difference owner - face ``(k, 2)``."""
+        m = self.mesh
+        j = m.boundary_local(group)
+        f = m.n_internal + j
         du = self.u[m.owner[f]] - self.boundary.velocity(m, self.u, self.grad_u())[j]
         n = m.normal[f]
         du_t = du - np.einsum("ij,ij->i", du, n)[:, None] * n
         dn = np.einsum("ij,ij->i", m.d[f], n)
-        viscous = (self.mu * m.length[f] / dn)[:, None] * du_t
-        return Forces(pressure, viscous.sum(axis=0))
+        mu_w = self.mu if self.mu_wall is None else self.mu_wall[j]
+        return mu_w, dn, du_t
+
+    def y_plus(self, group: str) -> np.ndarray:
+        """``y+ = dn u_tau / nu`` of the owner-cell centroid of each face of ``group`` ``(nfaces,)``, with
+        ``u_tau = sqrt(|tau_w| / rho)`` from :meth:`wall_shear` and ``dn`` the centroid's normal distance."""
+        m = self.mesh
+        f = m.boundary[group]
+        dn = np.einsum("ij,ij->i", m.d[f], m.normal[f])
+        u_tau = np.sqrt(np.linalg.norm(self.wall_shear(group), axis=1) / self.rho)
+        return dn * u_tau * self.rho / self.mu
 
     def sample(self, xy, which: str = "u") -> np.ndarray:
         """Linear reconstruction of ``u`` ``(k, 2)`` or ``p`` ``(k,)`` at points ``xy (k, 2)`` from the
@@ -119,7 +160,8 @@ class FlowResults:
         raise ValueError(f"unknown field {which!r}: 'u' or 'p'")
 
     def write_vtu(self, path: str | Path) -> None:
-        """Write cell fields ``U`` (3-vector), ``p`` and ``mag_U`` to a VTK unstructured-grid file."""
+        """Write cell fields ``U`` (3-vector), ``p`` and ``mag_U`` (and ``k``, ``omega``, ``nu_t`` when
+        turbulent) to a VTK unstructured-grid file."""
         import meshio
 
         m = self.mesh
@@ -132,6 +174,9 @@ class FlowResults:
 
         u3 = np.column_stack([self.u, np.zeros(m.n_cells)])
         data = {"U": split(u3), "p": split(self.p), "mag_U": split(np.linalg.norm(self.u, axis=1))}
+        for name in ("k", "omega", "nu_t"):
+            if getattr(self, name) is not None:
+                data[name] = split(getattr(self, name))
         meshio.Mesh(pts, blocks, cell_data=data).write(Path(path))
 
     def summary(self) -> str:

@@ -6,7 +6,10 @@ One outer iteration (:func:`outer_iteration`) reads like the algorithm:
 2. momentum systems (:func:`solver.momentum.momentum_system`) solved for the predicted velocity u*;
 3. Rhie–Chow fluxes F* (:func:`solver.pressure.rhie_chow_flux`);
 4. pressure correction p' (:func:`solver.pressure.pressure_correction_system`, AMG-preconditioned CG);
-5. corrections ``F = F* + F'``, ``u = u* - D̃ grad p'``, ``p = p + alpha_p p'``.
+5. corrections ``F = F* + F'``, ``u = u* - D̃ grad p'``, ``p = p + alpha_p p'``;
+6. with a turbulence model (:class:`solver.turbulence.SST`): the omega and k equations from the corrected
+   velocity and fluxes, then the eddy viscosity ``mu_t`` used by the next momentum step (per face
+   ``mu + mu_t``, :func:`solver.turbulence.turbulence_step`).
 
 :func:`solve_steady` loops until the scaled residuals are below ``tol`` and the monitored integral
 quantities (C_max and the forces on ``monitor_groups``) have stopped changing, or until ``max_iter``;
@@ -28,6 +31,7 @@ from .momentum import momentum_system
 from .pressure import (correct_flux, mass_imbalance, predicted_velocity_flux, pressure_correction_system,
                        rhie_chow_flux)
 from .results import FlowResults
+from .turbulence import SST, SSTSetup, initial_fields, momentum_viscosity, turbulence_step
 
 
 class DivergenceError(ArithmeticError):
@@ -95,31 +99,50 @@ class SimpleSettings:
 @dataclass
 class FlowState:
     """Mutable iterate: velocity ``(nc, 2)`` m/s, pressure ``(nc,)`` Pa, face mass flux ``(nf,)`` kg/(s m),
-    and the last gradients of p ``(nc, 2)`` and u ``(nc, 2, 2)`` (lagged boundary extrapolation)."""
+    and the last gradients of p ``(nc, 2)`` and u ``(nc, 2, 2)`` (lagged boundary extrapolation).
+    Turbulent runs also carry k ``(nc,)`` m²/s², omega ``(nc,)`` 1/s, nu_t ``(nc,)`` m²/s and the wall
+    faces' effective viscosity ``mu_wall`` (Pa s, :class:`solver.turbulence.WallValues`); None if laminar."""
 
     u: np.ndarray
     p: np.ndarray
     flux: np.ndarray
     grad_p: np.ndarray
     grad_u: np.ndarray
+    k: np.ndarray | None = None
+    omega: np.ndarray | None = None
+    nu_t: np.ndarray | None = None
+    mu_wall: np.ndarray | None = None
 
 
 @dataclass(frozen=True, eq=False)
 class Problem:
-    """A mesh with resolved boundary conditions, fluid and the FV sparsity pattern (built once)."""
+    """A mesh with resolved boundary conditions, fluid and the FV sparsity pattern (built once).
+
+    turbulence: None (laminar) or :class:`solver.turbulence.SST`; turbulence_setup: its per-mesh data
+    (wall distance, inlet k and omega), built by :meth:`create`.
+    """
 
     mesh: FVMesh
     bnd: BoundaryData
     fluid: Fluid
     pattern: FVPattern
     body_force: np.ndarray | None = None
+    turbulence: SST | None = None
+    turbulence_setup: SSTSetup | None = None
 
     @classmethod
     def create(cls, mesh: FVMesh, boundary_conditions: dict, fluid: Fluid = Fluid(),
-               body_force: np.ndarray | None = None) -> Problem:
-        """``body_force``: optional ``(nc, 2)`` force per unit volume at the cell centroids, N/m³."""
-        return cls(mesh, resolve_boundaries(mesh, boundary_conditions), fluid, FVPattern.from_mesh(mesh),
-                   body_force)
+               body_force: np.ndarray | None = None, turbulence: SST | None = None) -> Problem:
+        """``body_force``: optional ``(nc, 2)`` force per unit volume at the cell centroids, N/m³.
+        ``turbulence``: None (laminar) or ``solver.turbulence.SST(wall_treatment=..., constants=...)``;
+        inlet turbulence from the ``velocity_inlet`` parameters ``intensity`` and ``viscosity_ratio``."""
+        bnd = resolve_boundaries(mesh, boundary_conditions)
+        setup = None
+        if turbulence is not None:
+            if not isinstance(turbulence, SST):
+                raise TypeError(f"turbulence must be None or solver.turbulence.SST, not {type(turbulence)}")
+            setup = turbulence.setup(mesh, bnd, fluid.rho, fluid.mu)
+        return cls(mesh, bnd, fluid, FVPattern.from_mesh(mesh), body_force, turbulence, setup)
 
 
 def initial_state(problem: Problem, u0=(0.0, 0.0)) -> FlowState:
@@ -127,7 +150,10 @@ def initial_state(problem: Problem, u0=(0.0, 0.0)) -> FlowState:
     m, b = problem.mesh, problem.bnd
     u = np.broadcast_to(np.asarray(u0, float), (m.n_cells, 2)).copy()
     flux = predicted_velocity_flux(m, b, u, b.velocity(m, u), np.zeros((m.n_cells, 2, 2)), problem.fluid.rho)
-    return FlowState(u, np.zeros(m.n_cells), flux, np.zeros((m.n_cells, 2)), np.zeros((m.n_cells, 2, 2)))
+    s = FlowState(u, np.zeros(m.n_cells), flux, np.zeros((m.n_cells, 2)), np.zeros((m.n_cells, 2, 2)))
+    if problem.turbulence is not None:
+        s.k, s.omega, s.nu_t = initial_fields(problem.turbulence_setup, m.n_cells)
+    return s
 
 
 def outer_iteration(problem: Problem, s: FlowState, cfg: SimpleSettings, solver_state: dict) -> dict:
@@ -144,7 +170,10 @@ def outer_iteration(problem: Problem, s: FlowState, cfg: SimpleSettings, solver_
     grad_ho = _convection_gradient(m, s.u, u_b, grad_u, cfg)
     # 2. momentum predictor
     grad_p_mom = _pressure_gradient(m, s.p, p_b, s.grad_p, cfg)
-    mom = momentum_system(m, problem.pattern, bnd, s.u, u_b, s.flux, grad_u, grad_ho, grad_p_mom, mu,
+    turb = problem.turbulence
+    mu_eff = mu if turb is None else momentum_viscosity(m, problem.turbulence_setup, s.nu_t, s.mu_wall, rho, mu,
+                                                        turb.face_interpolation)
+    mom = momentum_system(m, problem.pattern, bnd, s.u, u_b, s.flux, grad_u, grad_ho, grad_p_mom, mu_eff,
                           cfg.alpha_u, problem.body_force)
     _check_finite("u", "momentum coefficients or source", mom.u.A.data, mom.u.b, mom.v.A.data, mom.v.b)
     (ru, nu), (rv, nv) = mom.u.residual_norms(), mom.v.residual_norms()
@@ -171,6 +200,15 @@ def outer_iteration(problem: Problem, s: FlowState, cfg: SimpleSettings, solver_
     s.p = s.p + cfg.alpha_p * p_corr
     if pc.pinned:
         s.p -= s.p.mean()
+    # 6. turbulence (omega, k, nu_t) from the corrected velocity and fluxes
+    if turb is not None:
+        u_b = bnd.velocity(m, s.u, grad_u)
+        grad_u_new = ls_gradient(m, s.u, u_b)
+        r_t, s.k, s.omega, s.nu_t, s.mu_wall = turbulence_step(
+            turb, problem.turbulence_setup, m, problem.pattern, bnd, s.u, grad_u_new, s.flux, s.k, s.omega,
+            rho, mu, solver_state)
+        _check_finite("k", "k or omega", s.k, s.omega)
+        res.update(r_t)
     return res
 
 
@@ -223,6 +261,8 @@ def _solve_steady(problem, settings, state, callback):
     t0 = time.perf_counter()
     s = initial_state(problem) if state is None else state
     hist = {"u": [], "v": [], "continuity": []}
+    if problem.turbulence is not None:
+        hist.update(k=[], omega=[])
     monitors: dict[str, list] = {"c_max": []}
     for g in settings.monitor_groups:
         monitors[f"fx:{g}"], monitors[f"fy:{g}"] = [], []
@@ -255,14 +295,31 @@ def _solve_steady(problem, settings, state, callback):
             break
     return FlowResults(problem.mesh, problem.bnd, s.u, s.p, s.flux, {k: np.array(v) for k, v in hist.items()},
                        status, message, it, problem.fluid.rho, problem.fluid.mu,
-                       time.perf_counter() - t0, {k: np.array(v) for k, v in monitors.items()})
+                       time.perf_counter() - t0, {k: np.array(v) for k, v in monitors.items()},
+                       **_turbulent_fields(problem, s))
+
+
+def _turbulent_fields(problem: Problem, s: FlowState) -> dict:
+    """Keyword arguments of :class:`FlowResults` for the turbulent fields (empty when laminar)."""
+    if problem.turbulence is None:
+        return {}
+    mu_wall = None
+    if s.mu_wall is not None:
+        mu_wall = np.full(problem.mesh.n_boundary, problem.fluid.mu)
+        mu_wall[problem.turbulence_setup.wall_local] = s.mu_wall
+    return dict(k=s.k, omega=s.omega, nu_t=s.nu_t, mu_wall=mu_wall,
+                wall_treatment=problem.turbulence.wall_treatment)
 
 
 class FlowStateCopy:
     """A copy of a :class:`FlowState` to fall back to after divergence."""
 
     def __init__(self, s: FlowState):
-        self._s = FlowState(s.u.copy(), s.p.copy(), s.flux.copy(), s.grad_p.copy(), s.grad_u.copy())
+        def cp(a):
+            return None if a is None else a.copy()
+
+        self._s = FlowState(s.u.copy(), s.p.copy(), s.flux.copy(), s.grad_p.copy(), s.grad_u.copy(),
+                            cp(s.k), cp(s.omega), cp(s.nu_t), cp(s.mu_wall))
 
     def restore(self) -> FlowState:
         return self._s
@@ -275,8 +332,8 @@ def _divergence(res: dict, hist: dict, s: FlowState, cfg: SimpleSettings) -> str
             return f"residual of {k} is not finite"
         if v > 1.0 and v > cfg.divergence_factor * min(hist[k]):
             return f"residual of {k} grew to {v:.3e} (> 1 and {cfg.divergence_factor:g} x its minimum)"
-    for name, a in (("u", s.u), ("p", s.p), ("flux", s.flux)):
-        if not np.all(np.isfinite(a)):
+    for name, a in (("u", s.u), ("p", s.p), ("flux", s.flux), ("k", s.k), ("omega", s.omega)):
+        if a is not None and not np.all(np.isfinite(a)):
             return f"field {name} is not finite"
     umax = float(np.abs(s.u).max())
     if umax > cfg.velocity_limit:
@@ -288,7 +345,7 @@ def _update_monitors(problem: Problem, s: FlowState, monitors: dict, cfg: Simple
     monitors["c_max"].append(float(np.sqrt((s.u**2).sum(axis=1)).max()))
     if cfg.monitor_groups:
         r = FlowResults(problem.mesh, problem.bnd, s.u, s.p, s.flux, {}, "", "", 0, problem.fluid.rho,
-                        problem.fluid.mu)
+                        problem.fluid.mu, **_turbulent_fields(problem, s))
         for g in cfg.monitor_groups:
             f = r.forces(g).total
             monitors[f"fx:{g}"].append(float(f[0]))

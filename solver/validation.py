@@ -1,4 +1,4 @@
-"""Validation cases against published data, as called by ``millfoil validate cavity|cylinder|mms``.
+"""Validation cases against published data, as called by ``millfoil validate cavity|cylinder|mms|flatplate``.
 
 Every case is a function ``level -> ValidationReport``, registered in :data:`CASES`; :func:`run_case` looks
 one up by name. Levels:
@@ -18,7 +18,7 @@ import time
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
 
-from . import cavity, cylinder, mms
+from . import cavity, cylinder, flatplate, mms
 
 #: Resolution levels accepted by every case.
 LEVELS: tuple[str, ...] = ("coarse", "medium", "fine")
@@ -106,7 +106,7 @@ def validate_cavity(level: str) -> ValidationReport:
 # ------------------------------------------------------------------------------------------------- MMS
 #: MMS refinement levels (:func:`solver.mms.run_level`: uniform refinements of one 170-cell gmsh triangle
 #: mesh) and the allowed shortfall of the observed (velocity, pressure) order from 2. coarse (170 / 680 /
-#: 2 720 cells, ~10 s): measured 2.28 / 2.46; medium (680 / 2 720 / 10 880 cells): 1.97 / 1.88; fine: all
+#: 2 720 cells, ~10 s): measured 2.28 / 2.46; medium (680 / 2 720 / 10 880 cells): 1.98 / 1.88; fine: all
 #: four. Every level asks the issue's >= 1.8 velocity, >= 1.5 pressure; a first-order scheme gives ~1.
 MMS_LEVELS = {"coarse": ((0, 1, 2), (0.2, 0.5)), "medium": ((1, 2, 3), (0.2, 0.5)),
               "fine": ((0, 1, 2, 3), (0.2, 0.5))}
@@ -161,18 +161,57 @@ def validate_cylinder(level: str) -> ValidationReport:
                             time.perf_counter() - t0, details)
 
 
+# ------------------------------------------------------------------------------------------ flat plate
+#: Flat-plate tolerances per level, % of the TMR value (c_f at x = 0.97, plate C_D). coarse (3 840 cells,
+#: y+ < 0.6): measured 2.1 % / 2.2 % low with SST (CFL3D on its 3 264-cell grid: 2.4 % / 2.3 % low); without
+#: a turbulence model (laminar) 89 % / 85 % low, and with F1 = 0 (k-epsilon branch everywhere) 22 % / 23 %
+#: high, so 5 % catches both. With F1 = 1 everywhere (the k-omega branch) c_f is 0.9 % high: on this case
+#: (zero pressure gradient, TMR freestream) the coarse level cannot separate it (the f1 unit tests do).
+#: medium (11 520 cells, measured 0.8 % / 0.9 %) and fine (28 672 cells, 0.2 % / 0.3 %): the issue's 2 % (c_f)
+#: and 3 % (C_D).
+FLATPLATE_TOLERANCES = {"coarse": {"cf": 5.0, "C_D": 5.0}, "medium": {"cf": 2.0, "C_D": 3.0},
+                        "fine": {"cf": 2.0, "C_D": 3.0}}
+
+
+def validate_flatplate(level: str) -> ValidationReport:
+    """NASA TMR zero-pressure-gradient flat plate (SST, Re = 5e6/m): c_f(0.97) and plate C_D vs TMR.
+
+    SST-2003 with the ``low_re`` wall treatment (y+ < 1); reference: TMR SST results (CFL3D, finest grid).
+    """
+    t0 = time.perf_counter()
+    res, c = flatplate.run_flatplate(level)
+    tol = FLATPLATE_TOLERANCES[level]
+    ref, err = flatplate.REFERENCE, c.errors()
+    comparisons = (
+        Comparison.of("c_f at x = 0.97 (error: % of reference)", c.cf_097, ref["cf_x0.97"],
+                      100 * err["cf_x0.97"], tol["cf"]),
+        Comparison.of("plate C_D, L = 2 (error: % of reference)", c.cd, ref["C_D"], 100 * err["C_D"],
+                      tol["C_D"]),
+    )
+    details = dict(_run_summary(res), mesh=dict(flatplate.LEVELS[level]), wall_treatment="low_re",
+                   y_plus_max=float(c.y_plus[c.x > 0.05].max()),
+                   ms_per_iteration=round(1e3 * res.wall_time / max(res.iterations, 1), 2))
+    return ValidationReport("flatplate", level, validate_flatplate.__doc__.split("\n")[0], comparisons,
+                            time.perf_counter() - t0, details)
+
+
 #: Validation cases by name: ``f(level) -> ValidationReport``.
 CASES: dict[str, Callable[[str], ValidationReport]] = {
     "cavity": validate_cavity,
     "cylinder": validate_cylinder,
+    "flatplate": validate_flatplate,
     "mms": validate_mms,
+    # NASA TMR NACA 0012 (SST, Re 6e6), solver/naca0012.py; imported on use; alpha 0 or 10 (None: both)
+    "naca0012": lambda level, alpha=None: __import__("solver.naca0012", fromlist=["_"]).validate_naca0012(
+        level, alpha),
 }
 
 
-def run_case(name: str, level: str = "coarse") -> ValidationReport:
-    """Run validation case ``name`` (:data:`CASES`) at ``level`` (:data:`LEVELS`)."""
+def run_case(name: str, level: str = "coarse", **options) -> ValidationReport:
+    """Run validation case ``name`` (:data:`CASES`) at ``level`` (:data:`LEVELS`); ``options`` go to the
+    case (``alpha`` for ``naca0012``)."""
     if name not in CASES:
         raise ValueError(f"unknown validation case {name!r}; choose from {sorted(CASES)}")
     if level not in LEVELS:
         raise ValueError(f"unknown level {level!r}; choose from {list(LEVELS)}")
-    return CASES[name](level)
+    return CASES[name](level, **options)

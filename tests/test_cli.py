@@ -117,7 +117,13 @@ def test_validate_prints_one_json_object_per_quantity(capsys):
 
 def test_validate_unknown_case(capsys):
     assert main(["validate", "airfoil"]) == EXIT_INPUT
-    assert "unknown validation case 'airfoil'; allowed: cavity, cylinder, mms" in capsys.readouterr().err
+    assert "unknown validation case 'airfoil'; allowed: cavity, cylinder, flatplate, mms, naca0012" in (
+        capsys.readouterr().err)
+
+
+def test_validate_alpha_only_for_the_airfoil(capsys):
+    assert main(["validate", "cavity", "--alpha", "10"]) == EXIT_INPUT
+    assert "--alpha applies to the naca0012 case only" in capsys.readouterr().err
 
 
 # ------------------------------------------------------------------------------------- evaluate

@@ -16,8 +16,9 @@ needs_gmsh = pytest.mark.skipif(importlib.util.find_spec("gmsh") is None, reason
 
 
 def test_registry_and_errors():
-    assert set(CASES) == {"cavity", "cylinder", "mms"} and LEVELS == ("coarse", "medium", "fine")
-    with pytest.raises(ValueError, match="cavity.*cylinder.*mms"):
+    assert set(CASES) == {"cavity", "cylinder", "flatplate", "mms", "naca0012"}
+    assert LEVELS == ("coarse", "medium", "fine")
+    with pytest.raises(ValueError, match="cavity.*cylinder.*flatplate.*mms.*naca0012"):
         run_case("airfoil")
     with pytest.raises(ValueError, match="coarse.*medium.*fine"):
         run_case("cavity", "huge")

@@ -1,0 +1,458 @@
+"""NASA TMR 2D NACA 0012 validation case (turbmodels.larc.nasa.gov, "2D NACA 0012 Airfoil Validation").
+
+TMR airfoil with a closed (sharp) trailing edge, chord 1, on the structured C-mesh of
+:mod:`solver.naca_mesh` (far field >= 100 chords); Re = 6e6: rho = 1, U = 1, mu = 1/6e6; k-omega SST
+(:class:`solver.turbulence.SST`, ``low_re`` wall treatment; first cell 2e-6 / 1e-6 / 1e-6 chords, wall y+
+of the first centroid <= 0.72). The mesh is fixed and the freestream ``U∞ = (cos α, sin α)`` is rotated;
+the force on the airfoil (body axes) is projected on the drag (along U∞) and lift (normal) directions::
+
+    C_D = F·(cos α, sin α) / (½ rho U² c),  C_L = F·(−sin α, cos α) / (½ rho U² c),  C_p = p / (½ rho U²)
+
+(p∞ = 0 at the outflow). Far field: ``farfield_in`` (U∞·n < 0) velocity inlet, U∞ plus the point vortex
+of the current C_L (:func:`vortex_velocity`, updated every 100 iterations; TMR's runs have the point-vortex
+correction too), with the TMR freestream turbulence (k = 9e-9 a², omega = 1e-6 rho a²/mu at M = 0.15, read
+from the CFL3D file header: intensity 5.16e-4, nu_t/nu = 0.009); ``farfield_out`` pressure outlet p = 0.
+Start: potential flow (:func:`potential_start`); SIMPLE, alpha_u 0.7, alpha_p 0.3 (:func:`naca_settings`).
+
+Compared with CFL3D SST on the 897x257 grid (``solver/reference/tmr_naca0012_cfl3d_sst_*.csv``, copied
+from the TMR files): C_L, C_D at α = 0° and 10° (issue tolerances: α = 0: |C_L| <= 0.005, C_D within 8 %;
+α = 10: C_L within 2 %, C_D within 8 %), and the RMS difference of C_p along the chord.
+
+    python -m solver.naca0012 --alpha 10 --level medium --verbose     # prints the comparison
+    python -m solver.naca0012 --alpha 0 --level coarse --laminar --re 2000   # harness check, no reference
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import json
+import re
+import sys
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .linalg import SolverSettings
+from .naca_mesh import LEVELS, naca0012_cmesh, quality
+from .steady import Fluid, Problem, SimpleSettings, initial_state, solve_steady
+
+REFERENCE_DIR = Path(__file__).resolve().parent / "reference"
+CLCD_FILE = "tmr_naca0012_cfl3d_sst_clcd_fulldigits.csv"
+CP_FILE = "tmr_naca0012_cfl3d_sst_cp.csv"
+#: Reynolds number per chord and the Mach number of the TMR runs (for the freestream turbulence).
+REYNOLDS = 6e6
+MACH = 0.15
+#: Angles of attack with reference data, deg.
+ALPHAS = (0.0, 10.0)
+#: Issue tolerances per angle: C_L absolute at 0° and relative at 10°, C_D relative.
+TOLERANCE = {0.0: {"C_L_abs": 0.005, "C_D_rel": 0.08}, 10.0: {"C_L_rel": 0.02, "C_D_rel": 0.08}}
+#: The issue asks only to report the RMS of C_p(computed) - C_p(CFL3D) over the reference points; this
+#: project tolerance (about 2 % of the α = 10° suction peak |C_p| ~ 5.5) flags gross errors. Measured
+#: (SST, converged): α = 0: 0.011 / 0.004 / 0.004 (coarse / medium / fine); α = 10: 0.075 / 0.053.
+#: Part of it is compressibility: the CFL3D runs are at M = 0.15 (Prandtl-Glauert factor 1.011).
+CP_RMS_TOLERANCE = 0.1
+
+
+# -------------------------------------------------------------------------------------------- reference
+def _rows(name: str, reference_dir: Path = REFERENCE_DIR) -> list[list[str]]:
+    """Data rows of a reference CSV (``#`` header lines and the column-name line skipped), split on commas."""
+    lines = [ln for ln in (reference_dir / name).read_text().splitlines() if ln and not ln.startswith("#")]
+    return [ln.split(",") for ln in lines[1:]]
+
+
+def load_clcd(reference_dir: Path = REFERENCE_DIR) -> dict[float, tuple[float, float]]:
+    """CFL3D SST ``{alpha_deg: (C_L, C_D)}`` (897x257 grid, point-vortex far field)."""
+    return {float(a): (float(cl), float(cd)) for a, cl, cd in _rows(CLCD_FILE, reference_dir)}
+
+
+def load_cp(alpha_deg: float, reference_dir: Path = REFERENCE_DIR) -> dict[str, np.ndarray]:
+    """CFL3D SST C_p at ``alpha_deg``: ``{"lower": (n, 2), "upper": (n, 2)}`` rows ``(x, C_p)``. The file lists
+    one zone per angle from the trailing edge along the lower surface to the leading edge and back along
+    the upper surface (checked: at 10° the second half has the suction peak)."""
+    zone = f"alpha={alpha_deg:g}"
+    a = np.array([[float(r[1]), float(r[2])] for r in _rows(CP_FILE, reference_dir) if r[0] == zone])
+    if a.size == 0:
+        raise ValueError(f"no C_p reference for alpha = {alpha_deg:g}; available {ALPHAS}")
+    k = int(np.argmin(a[:, 0]))
+    return {"lower": a[:k + 1][::-1], "upper": a[k:]}
+
+
+def tmr_freestream(reference_dir: Path = REFERENCE_DIR, mach: float = MACH) -> dict[str, float]:
+    """Inlet turbulence of the TMR runs from the CFL3D file header (``k/a² = 9e-9``,
+    ``omega mu/(rho a²) = 1e-6``): ``intensity = sqrt(k / 1.5) / U`` with ``U = M a`` and
+    ``viscosity_ratio = nu_t/nu = (k/a²) / (omega mu/(rho a²))``."""
+    head = "\n".join(ln for ln in (reference_dir / CLCD_FILE).read_text().splitlines() if ln.startswith("#"))
+    k = float(re.search(r"k/a_inf\^2\s*=\s*([0-9.eE+-]+)", head).group(1))
+    w = float(re.search(r"omega\*mu_inf/\(rho_inf\*a_inf\^2\)\s*=\s*([0-9.eE+-]+)", head).group(1))
+    return {"intensity": float(np.sqrt(k / 1.5) / mach), "viscosity_ratio": k / w}
+
+
+# ------------------------------------------------------------------------------------------------ setup
+def freestream(alpha_deg: float) -> np.ndarray:
+    """Unit freestream velocity at angle of attack ``alpha_deg``."""
+    a = np.radians(alpha_deg)
+    return np.array([np.cos(a), np.sin(a)])
+
+
+def vortex_velocity(xy: np.ndarray, alpha_deg: float, c_l: float, centre=(0.25, 0.0)) -> np.ndarray:
+    """Freestream plus the point vortex of the airfoil's circulation ``Γ = ½ U c C_L`` (clockwise for
+    positive lift) at the quarter chord: ``u = U∞ + Γ/(2π r²) (r_y, −r_x)``, m/s, at points ``xy (k, 2)``."""
+    r = np.asarray(xy, float) - np.asarray(centre, float)
+    gamma = 0.5 * c_l
+    r2 = (r**2).sum(axis=1)
+    return freestream(alpha_deg)[None, :] + (gamma / (2.0 * np.pi * r2))[:, None] * np.column_stack([r[:, 1], -r[:, 0]])
+
+
+def boundary_conditions(alpha_deg: float, turbulent: bool = True, c_l: float | None = None) -> dict:
+    """Far field: velocity inlet (freestream at α; TMR turbulence when ``turbulent``; plus the point-vortex
+    velocity of ``c_l`` when given) on ``farfield_in``, pressure outlet p = 0 on ``farfield_out``; no-slip
+    ``wall``."""
+    inlet = {"type": "velocity_inlet", "velocity": tuple(freestream(alpha_deg))}
+    if c_l is not None and c_l != 0.0:
+        inlet["profile"] = lambda xy: vortex_velocity(xy, alpha_deg, c_l)
+    if turbulent:
+        inlet.update(tmr_freestream())
+    return {"wall": "wall", "farfield_in": inlet, "farfield_out": {"type": "pressure_outlet", "p": 0.0}}
+
+
+def potential_start(problem: Problem, u_inf, solver: SolverSettings = SolverSettings("amg", 1e-10, 500)):
+    """Initial state: the potential flow around the airfoil (slip at the wall) and its Bernoulli pressure.
+
+    An impulsive start (uniform U∞ through the wall) leaves cells at the leading edge with a net inflow
+    larger than their outflow, so that the SIMPLEC coefficient ``a_P/alpha - sum a_nb`` is negative there
+    at high Re and the first iterations explode (measured on this mesh: Re >= 1e4). One projection of the
+    uniform flow with the solver's own pressure-correction operator (``D̃ = 1``) gives discretely
+    divergence-free fluxes: ``F = F0 - grad_f phi``, ``u = U∞ - grad phi``, ``p = (|U∞|² - |u|²)/2``.
+    """
+    from .gradient import ls_gradient
+    from .pressure import correct_flux, pressure_correction_system
+
+    m, b, rho = problem.mesh, problem.bnd, problem.fluid.rho
+    s = initial_state(problem, tuple(u_inf))
+    pc = pressure_correction_system(m, problem.pattern, b, s.flux, np.ones(m.n_cells), rho)
+    phi, _ = solver.solve(pc.system, {})
+    s.flux = correct_flux(m, s.flux, pc.coef, phi)
+    phi_b = np.where(b.p_fixed, 0.0, phi[m.owner[m.n_internal:]])
+    s.u = s.u - ls_gradient(m, phi, phi_b)
+    s.p = 0.5 * rho * (float(np.dot(u_inf, u_inf)) - (s.u**2).sum(axis=1))
+    return s
+
+
+@contextlib.contextmanager
+def linear_face_flux(enabled: bool = True):
+    """Within the block, the mass flux uses the linear face velocity only (``solver.pressure.QUADRATIC_CAP
+    = 0``; restored on exit). Stopgap until the solver has a setting for it: the capped quadratic
+    face-mean velocity (commit 133e54c, made for triangles) is not capped on the tangential faces of
+    thin, curved boundary-layer cells (the cap ~ |d| |grad u| is large there), and on this C-mesh it
+    separates the α = 10° flow: measured, coarse, 200 iterations from the potential start: C_L 0.90,
+    C_D 0.066 with it, C_L 1.089, C_D 0.0121 without; a restart from the converged attached solution
+    separates within 100 iterations (C_D 0.0128 -> 0.034)."""
+    from . import pressure
+
+    if not enabled or not hasattr(pressure, "QUADRATIC_CAP"):
+        yield
+        return
+    saved = pressure.QUADRATIC_CAP
+    pressure.QUADRATIC_CAP = 0.0
+    try:
+        yield
+    finally:
+        pressure.QUADRATIC_CAP = saved
+
+
+def naca_settings(**overrides) -> SimpleSettings:
+    """Settings of one chunk of outer iterations (:func:`run_naca0012` checks convergence between chunks:
+    the solver's own stop test is disabled with ``tol = -1``; ``max_iter`` is the chunk length).
+
+    SIMPLE with ``alpha_p = 0.3`` and a pressure-correction solve to 1e-3: with SIMPLEC (``alpha_p = 1``)
+    and the default pressure tolerance 0.05 the coarse SST run diverges within 10 iterations. The
+    SIMPLEC coefficient ``V / (a_P/alpha_u - sum a_nb)`` of :mod:`solver.steady` turns negative where a
+    cell's remaining mass imbalance (net inflow) exceeds ``(1/alpha_u - 1) a_P`` (measured: near the
+    leading edge, and in the far-wake cells near the outflow plane); SIMPLE's ``V / a_P`` stays positive.
+    """
+    base = dict(algorithm="simple", alpha_u=0.7, alpha_p=0.3, max_iter=100, tol=-1.0, monitor_groups=(),
+                momentum_solver=SolverSettings("gauss_seidel", 0.1, 8),
+                pressure_solver=SolverSettings("amg", 1e-3, 200))
+    base.update(overrides)
+    return SimpleSettings(**base)
+
+
+@dataclass(frozen=True)
+class Convergence:
+    """Stop test of :func:`run_naca0012`, checked after every chunk of ``chunk`` iterations: all scaled
+    residuals below ``tol`` and, over the last ``window`` chunks, C_L varying by less than ``cl_tol``
+    (absolute; it is ~0 at α = 0) and C_D by less than ``cd_rel`` (relative); at most ``max_iter``."""
+
+    chunk: int = 100
+    max_iter: int = 6000
+    tol: float = 1e-5
+    cl_tol: float = 5e-4
+    cd_rel: float = 2e-3
+    window: int = 5
+
+
+@dataclass
+class NacaResult:
+    """Coefficients of one run: lift and drag (total, pressure and viscous parts), C_p on each surface
+    (``x``, ``cp`` sorted by x at the wall-face centres), mesh and run data; ``results`` is the
+    :class:`solver.results.FlowResults` (not serialised)."""
+
+    alpha_deg: float
+    level: str
+    reynolds: float
+    turbulent: bool
+    c_l: float
+    c_d: float
+    c_l_pressure: float
+    c_l_viscous: float
+    c_d_pressure: float
+    c_d_viscous: float
+    x_upper: np.ndarray
+    cp_upper: np.ndarray
+    x_lower: np.ndarray
+    cp_lower: np.ndarray
+    cells: int
+    iterations: int
+    status: str
+    solve_seconds: float
+    y_plus_max: float | None = None
+    results: object = field(default=None, repr=False)
+    history: dict = field(default_factory=dict, repr=False)
+
+    def summary(self) -> dict:
+        """JSON-able scalars."""
+        return {k: getattr(self, k) for k in self.__dataclass_fields__
+                if k not in ("results", "history") and not isinstance(getattr(self, k), np.ndarray)}
+
+
+def coefficients(res, alpha_deg: float, level: str = "", reynolds: float = REYNOLDS,
+                 turbulent: bool = True) -> NacaResult:
+    """Lift, drag and C_p of a solution (rho = U = c = 1)."""
+    q = 0.5 * res.rho
+    f = res.forces("wall")
+    e_d = freestream(alpha_deg)
+    e_l = np.array([-e_d[1], e_d[0]])
+    m = res.mesh
+    j = m.boundary_local("wall")
+    xc = m.face_centre[m.boundary["wall"]]
+    cp = res.boundary_pressure()[j] / q
+    up = xc[:, 1] > 0
+    ou, ol = np.argsort(xc[up, 0]), np.argsort(xc[~up, 0])
+    y_plus = None
+    if hasattr(res, "y_plus"):
+        y_plus = float(np.max(res.y_plus("wall")))
+    return NacaResult(
+        float(alpha_deg), level, float(reynolds), bool(turbulent),
+        float(f.total @ e_l / q), float(f.total @ e_d / q), float(f.pressure @ e_l / q),
+        float(f.viscous @ e_l / q), float(f.pressure @ e_d / q), float(f.viscous @ e_d / q),
+        xc[up, 0][ou], cp[up][ou], xc[~up, 0][ol], cp[~up][ol], m.n_cells, res.iterations, res.status,
+        round(res.wall_time, 2), y_plus, res)
+
+
+def run_naca0012(*args, linear_flux: bool = True, **kwargs) -> NacaResult:
+    """:func:`_run_naca0012` inside :func:`linear_face_flux` (``linear_flux=False``: the solver's default
+    capped quadratic face-mean mass flux)."""
+    with linear_face_flux(linear_flux):
+        return _run_naca0012(*args, **kwargs)
+
+
+def _run_naca0012(alpha_deg: float = 0.0, level: str = "coarse", *, reynolds: float = REYNOLDS,
+                 turbulent: bool = True, turbulence=None, settings: SimpleSettings | None = None,
+                 convergence: Convergence = Convergence(), mesh_spec=None, callback=None,
+                 progress=None, state_file=None, max_seconds: float | None = None,
+                 vortex_correction: bool = True) -> NacaResult:
+    """Solve the NACA 0012 at ``alpha_deg`` on the C-mesh of ``level`` (:data:`solver.naca_mesh.LEVELS`) or
+    ``mesh_spec`` (a :class:`solver.naca_mesh.CMeshSpec`).
+
+    ``turbulent``: k-omega SST (``turbulence`` or ``SST(wall_treatment="low_re")``) with the TMR freestream
+    turbulence; ``False`` runs laminar (harness checks at low ``reynolds``). The SIMPLEC loop runs in chunks
+    of ``convergence.chunk`` iterations (``settings``, :func:`naca_settings`) on one state until
+    :class:`Convergence` holds; ``callback(iteration, residuals, state)`` as in
+    :func:`solver.steady.solve_steady` (chunk-local iteration numbers); ``progress(iterations, residuals,
+    c_l, c_d)`` after each chunk. ``state_file`` (``.npz``): start from it when it exists, and write the
+    state there after the run (restart of long runs); ``max_seconds``: stop after the chunk that passes
+    this wall time (status ``not_converged``). ``vortex_correction``: after every chunk the inflow
+    velocity is reset to U∞ plus the point vortex of the current C_L (:func:`vortex_velocity`; the outflow
+    pressure stays 0), as in the TMR reference runs.
+    """
+    spec = mesh_spec if mesh_spec is not None else level
+    cm = naca0012_cmesh(spec, alpha_deg=alpha_deg)
+    fluid = Fluid(1.0, 1.0 / reynolds)
+    model = None
+    if turbulent:
+        from .turbulence import SST
+
+        model = turbulence or SST(wall_treatment="low_re")
+
+    def make_problem(c_l=None):
+        bcs = boundary_conditions(alpha_deg, turbulent, c_l if vortex_correction else None)
+        if model is None:
+            return Problem.create(cm.mesh, bcs, fluid)
+        return Problem.create(cm.mesh, bcs, fluid, turbulence=model)
+
+    problem = make_problem()
+    cfg = settings or naca_settings(max_iter=convergence.chunk)
+    state = potential_start(problem, freestream(alpha_deg))
+    done, cls, cds = 0, [], []
+    if state_file is not None and Path(state_file).exists():
+        done, cls, cds = _load_state(state, state_file)
+        if cls and vortex_correction:
+            problem = make_problem(cls[-1])
+    t0 = time.perf_counter()
+    total, hist, w = 0, {}, convergence.window
+    while True:
+        res = solve_steady(problem, cfg, state, callback)
+        total += res.iterations
+        for k, v in res.residuals.items():
+            hist.setdefault(k, []).extend(np.asarray(v).tolist())
+        if res.status == "diverged":
+            status = "diverged"
+            break
+        r = coefficients(res, alpha_deg, turbulent=turbulent)
+        cls.append(r.c_l)
+        cds.append(r.c_d)
+        last = {k: v[-1] for k, v in res.residuals.items() if len(v)}
+        if progress is not None:
+            progress(total, last, r.c_l, r.c_d)
+        if len(cls) > w and max(last.values()) < convergence.tol \
+                and np.ptp(cls[-w - 1:]) < convergence.cl_tol \
+                and np.ptp(cds[-w - 1:]) < convergence.cd_rel * abs(cds[-1]):
+            status = "converged"
+            break
+        if total + done >= convergence.max_iter or (max_seconds and time.perf_counter() - t0 > max_seconds):
+            status = "not_converged"
+            break
+        if vortex_correction and abs(r.c_l) > 1e-3:
+            problem = make_problem(r.c_l)
+    if state_file is not None and status != "diverged":
+        _save_state(state, state_file, total + done, cls, cds)
+    run_iterations = total
+    total += done
+    res.status = status
+    res.iterations = total
+    res.wall_time = time.perf_counter() - t0
+    res.residuals = {k: np.array(v) for k, v in hist.items()}
+    res.message = (f"{status} after {total} iterations: last residuals "
+                   f"{ {k: float(f'{v[-1]:.2e}') for k, v in hist.items() if v} }; C_L {cls[-w - 1:] if cls else []} "
+                   f"C_D {cds[-w - 1:] if cds else []} over the last chunks")
+    out = coefficients(res, alpha_deg, level if mesh_spec is None else "custom", reynolds, turbulent)
+    out.history = {"c_l": cls, "c_d": cds, "chunk": convergence.chunk, "iterations_this_run": run_iterations}
+    return out
+
+
+_STATE_FIELDS = ("u", "p", "flux", "grad_p", "grad_u", "k", "omega", "nu_t", "mu_wall")
+
+
+def _save_state(state, path, iterations: int, c_l=(), c_d=()) -> None:
+    arrays = {k: getattr(state, k) for k in _STATE_FIELDS if getattr(state, k, None) is not None}
+    np.savez(path, iterations=iterations, c_l_history=np.asarray(c_l, float), c_d_history=np.asarray(c_d, float),
+             **arrays)
+
+
+def _load_state(state, path) -> tuple[int, list, list]:
+    """Fill ``state`` from a file of :func:`_save_state` (same mesh); returns its iteration count and the
+    per-chunk C_L and C_D histories."""
+    with np.load(path) as z:
+        for k in _STATE_FIELDS:
+            if k in z.files:
+                if getattr(state, k, None) is not None and getattr(state, k).shape != z[k].shape:
+                    raise ValueError(f"{path}: field {k} has shape {z[k].shape}, mesh needs {getattr(state, k).shape}")
+                setattr(state, k, z[k].copy())
+        return int(z["iterations"]), z["c_l_history"].tolist(), z["c_d_history"].tolist()
+
+
+def cp_rms(r: NacaResult, reference_dir: Path = REFERENCE_DIR) -> float:
+    """RMS over the CFL3D points of both surfaces of ``C_p(computed) - C_p(CFL3D)``, the computed C_p
+    interpolated linearly in x between wall-face centres (held constant beyond the first/last face)."""
+    ref = load_cp(r.alpha_deg, reference_dir)
+    d = np.concatenate([np.interp(ref["upper"][:, 0], r.x_upper, r.cp_upper) - ref["upper"][:, 1],
+                        np.interp(ref["lower"][:, 0], r.x_lower, r.cp_lower) - ref["lower"][:, 1]])
+    return float(np.sqrt(np.mean(d**2)))
+
+
+def compare(r: NacaResult, reference_dir: Path = REFERENCE_DIR) -> list:
+    """:class:`solver.validation.Comparison` records of one run against CFL3D SST."""
+    from .validation import Comparison
+
+    a = float(r.alpha_deg)
+    if a not in TOLERANCE:
+        raise ValueError(f"no reference data for alpha = {a:g}; available {ALPHAS}")
+    cl_ref, cd_ref = load_clcd(reference_dir)[a]
+    tol = TOLERANCE[a]
+    out = []
+    if "C_L_abs" in tol:
+        out.append(Comparison.of(f"alpha {a:g}: C_L (error: absolute)", r.c_l, cl_ref, abs(r.c_l - cl_ref),
+                                 tol["C_L_abs"]))
+    else:
+        out.append(Comparison.of(f"alpha {a:g}: C_L (error: % of reference)", r.c_l, cl_ref,
+                                 100 * abs(r.c_l / cl_ref - 1), 100 * tol["C_L_rel"]))
+    out.append(Comparison.of(f"alpha {a:g}: C_D (error: % of reference)", r.c_d, cd_ref,
+                             100 * abs(r.c_d / cd_ref - 1), 100 * tol["C_D_rel"]))
+    rms = cp_rms(r, reference_dir)
+    out.append(Comparison.of(f"alpha {a:g}: C_p RMS difference vs CFL3D (error: RMS of delta C_p)", rms, 0.0, rms,
+                             CP_RMS_TOLERANCE))
+    return out
+
+
+def validate_naca0012(level: str, alpha: float | None = None):
+    """NASA TMR NACA 0012, Re = 6e6, k-omega SST: C_L, C_D and C_p vs CFL3D (897x257 grid) at
+    alpha = 0 and 10 deg (or only ``alpha``)."""
+    from .validation import ValidationReport
+
+    t0 = time.perf_counter()
+    alphas = ALPHAS if alpha is None else (float(alpha),)
+    comparisons, details = [], {}
+    for a in alphas:
+        if a not in TOLERANCE:
+            raise ValueError(f"no reference data for alpha = {a:g}; available {ALPHAS}")
+        r = run_naca0012(a, level)
+        comparisons += compare(r)
+        details[f"alpha{a:g}"] = dict(r.summary(), cp_rms=cp_rms(r))
+    details["mesh"] = {k: (round(v, 6) if isinstance(v, float) else v)
+                       for k, v in quality(naca0012_cmesh(level)).items()}
+    return ValidationReport("naca0012", level, validate_naca0012.__doc__.split("\n")[0], tuple(comparisons),
+                            time.perf_counter() - t0, details)
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--alpha", type=float, default=0.0)
+    ap.add_argument("--level", default="coarse", choices=list(LEVELS))
+    ap.add_argument("--laminar", action="store_true", help="no turbulence model (harness check)")
+    ap.add_argument("--re", type=float, default=REYNOLDS)
+    ap.add_argument("--max-iter", type=int, default=Convergence.max_iter)
+    ap.add_argument("--verbose", action="store_true", help="print residuals, C_L and C_D every chunk")
+    ap.add_argument("--json", action="store_true")
+    ap.add_argument("--state", default=None, help="restart file (.npz): read if present, written at the end")
+    ap.add_argument("--max-seconds", type=float, default=None, help="stop after this wall time (s)")
+    a = ap.parse_args(argv)
+    conv = Convergence(max_iter=a.max_iter)
+
+    def progress(it, res, cl, cd):
+        if a.verbose:
+            print(it, " ".join(f"{k} {v:.2e}" for k, v in res.items()), f"C_L {cl:.6f} C_D {cd:.6f}", flush=True)
+
+    t0 = time.perf_counter()
+    r = run_naca0012(a.alpha, a.level, reynolds=a.re, turbulent=not a.laminar, convergence=conv, progress=progress,
+                     state_file=a.state, max_seconds=a.max_seconds)
+    s = r.summary()
+    s["total_seconds"] = round(time.perf_counter() - t0, 1)
+    s["ms_per_iteration"] = round(1e3 * r.solve_seconds / max(r.history["iterations_this_run"], 1), 1)
+    s["message"] = r.results.message
+    have_ref = (not a.laminar) and a.re == REYNOLDS and a.alpha in TOLERANCE
+    cmp = compare(r) if have_ref else []
+    if a.json:
+        print(json.dumps({**s, "comparisons": [c.as_json() for c in cmp]}, indent=1))
+    else:
+        print(json.dumps(s))
+        for c in cmp:
+            print(f"  {c.name:60s} {c.computed:12.6g} {c.reference:12.6g} {c.error:9.4g} {c.tolerance:8.4g} "
+                  f"{'pass' if c.passed else 'FAIL'}")
+    return 0 if all(c.passed for c in cmp) else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,41 @@
+"""Warm start: an initial iterate on one mesh from a converged solution on another.
+
+In a campaign, neighbouring blades have similar flows; starting a solve from a neighbour's solution
+instead of the free stream saves outer iterations (the paper starts every blade from the solution of
+the blade in the middle of the parameter ranges, §3.2). The meshes differ (each blade has its own), so
+the fields are transferred cell by cell: each target cell takes the source cell whose centroid is
+nearest, reconstructed linearly to the target centroid with the source cell's gradient for u and p
+(k, ω, ν_t are copied, then floored to be positive). Fluxes are rebuilt from the transferred velocity;
+the first outer iterations repair the mismatch near the new wall.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from .pressure import predicted_velocity_flux
+from .results import FlowResults
+from .steady import FlowState, Problem, initial_state
+
+
+def mapped_state(problem: Problem, source: FlowResults) -> FlowState:
+    """Initial :class:`FlowState` on ``problem.mesh`` from ``source`` (a solution on any other mesh of the
+    same domain). Turbulence fields are transferred when both sides have them, else initialised as for a
+    cold start."""
+    mesh = problem.mesh
+    _, near = cKDTree(source.mesh.centroid).query(mesh.centroid)
+    r = mesh.centroid - source.mesh.centroid[near]
+    u = source.u[near] + np.einsum("kcd,kd->kc", source.grad_u()[near], r)
+    p = source.p[near] + np.einsum("kd,kd->k", source.grad_p()[near], r)
+    state = initial_state(problem)
+    state.u, state.p = u, p
+    state.flux = predicted_velocity_flux(mesh, problem.bnd, u, problem.bnd.velocity(mesh, u),
+                                         np.zeros((mesh.n_cells, 2, 2)), problem.fluid.rho)
+    if state.k is not None and getattr(source, "k", None) is not None:
+        floor_k, floor_w = state.k.min(), state.omega.min()
+        state.k = np.maximum(source.k[near], floor_k)
+        state.omega = np.maximum(source.omega[near], floor_w)
+        if getattr(source, "nu_t", None) is not None:
+            state.nu_t = np.maximum(source.nu_t[near], 0.0)
+    return state
