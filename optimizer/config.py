@@ -134,7 +134,10 @@ class SolverConfig(_Frozen):
     to the wall, y+ ~ 1). max_iter: iteration cap. tol: scaled-residual tolerance. monitor_tol,
     monitor_window: the solver's convergence test on the monitored C_max and blade forces (relative
     change over that many iterations). classify_window, classify_tol: window (iterations) and relative
-    tolerance of the convergence classification of an unconverged solve (:mod:`solver.convergence`).
+    tolerance of the convergence classification (:mod:`solver.convergence`; the issue's "lift and C_max
+    stationary to 0.1 % over a window"). stall_tol: the solve also stops as converged once the monitors
+    are stationary in that sense and every scaled residual is below it (RANS residuals often stall
+    between 1e-6 and 1e-5 while the forces have settled); null: run to ``tol`` or ``max_iter``.
     algorithm: ``simple`` or ``simplec``; alpha_u, alpha_p: momentum and pressure under-relaxation
     (``alpha_p`` ``None``: 1 for SIMPLEC). Defaults: SIMPLE, 0.7, 0.3 — SIMPLEC (alpha_p = 1) diverged
     within 3 iterations on the coarse blade mesh at Re = 1e6 (first cell for y+ = 1, aspect ratio
@@ -151,6 +154,7 @@ class SolverConfig(_Frozen):
     monitor_window: int = Field(20, ge=2)
     classify_window: int = Field(200, ge=8)
     classify_tol: float = Field(1e-3, gt=0)
+    stall_tol: float | None = Field(1e-5, gt=0)
     algorithm: Literal["simple", "simplec"] = "simple"
     alpha_u: float = Field(0.7, gt=0, le=1)
     alpha_p: float | None = Field(0.3, gt=0, le=1)

@@ -259,7 +259,8 @@ def simple_settings(config: Config):
 
     s = config.solver
     changes = dict(max_iter=s.max_iter, tol=s.tol, monitor_tol=s.monitor_tol, monitor_window=s.monitor_window,
-                   monitor_groups=("blade",), convection=s.convection, algorithm=s.algorithm, alpha_u=s.alpha_u,
+                   monitor_groups=("blade",), classify_window=s.classify_window, classify_tol=s.classify_tol,
+                   stall_tol=s.stall_tol, convection=s.convection, algorithm=s.algorithm, alpha_u=s.alpha_u,
                    alpha_p=1.0 if s.alpha_p is None and s.algorithm == "simplec" else s.alpha_p)
     if changes["alpha_p"] is None:
         changes.pop("alpha_p")
@@ -312,9 +313,9 @@ def _post(config: Config, profile, flow, seconds, artifacts) -> Evaluation:
     chord = float(profile.spec["L"])
     span = fl.span_for(chord)
     q = 0.5 * fl.density * fl.speed**2
-    cls = classify(flow.monitors, window=s.classify_window, tol=s.classify_tol,
-                   converged=flow.converged, diverged=flow.status == "diverged")
-    status = cls.status
+    cls = flow.classification or classify(flow.monitors, window=s.classify_window, tol=s.classify_tol,
+                                          converged=flow.converged, diverged=flow.status == "diverged")
+    status = flow.status if flow.classification is not None or flow.converged else cls.status
     missing: dict[str, str] = {}
 
     forces = flow.forces("blade")

@@ -12,7 +12,7 @@ from .fvmesh import CELL_TYPES, FVMesh
 from .gradient import ls_gradient
 
 #: Possible values of :attr:`FlowResults.status`.
-STATUSES = ("converged", "not_converged", "diverged")
+STATUSES = ("converged", "oscillating", "not_converged", "diverged")
 
 
 @dataclass(frozen=True)
@@ -48,6 +48,8 @@ class FlowResults:
     mu_wall: ``(nb,)`` effective viscosity of the boundary faces for the wall shear, Pa s: the molecular
         ``mu`` except on walls under the ``automatic`` wall treatment (``rho u_tau² dn / |u_t|``, the
         wall-function shear); None means ``mu`` everywhere. wall_treatment: its name, or None.
+    classification: :class:`solver.convergence.Classification` of a solve stopped by ``max_iter``
+        (window means, amplitudes and periods of the monitors), else None.
     """
 
     mesh: FVMesh
@@ -68,6 +70,7 @@ class FlowResults:
     nu_t: np.ndarray | None = None
     mu_wall: np.ndarray | None = None
     wall_treatment: str | None = None
+    classification: object = None
 
     @property
     def converged(self) -> bool:

@@ -68,6 +68,13 @@ class SimpleSettings:
     monitor_tol, monitor_window: integral quantities must vary less than ``monitor_tol`` (relative)
         over the last ``monitor_window`` iterations.
     monitor_groups: boundary groups whose forces are monitored.
+    classify_window, classify_tol: a solve that reaches ``max_iter`` is classified from its monitors over
+        the last ``classify_window`` iterations (:func:`solver.convergence.classify`): ``converged`` if
+        they are stationary within ``classify_tol`` (relative), ``oscillating`` (bounded; use the window
+        means in ``FlowResults.classification``) or ``not_converged`` (drifting).
+    stall_tol: if set, a solve also stops as ``converged`` once its monitors are stationary in that sense
+        and every scaled residual is below ``stall_tol`` — for residuals that stall above ``tol``
+        (limiter chatter in RANS runs) while forces and C_max have settled. None (default): off.
     divergence_factor: a residual above 1 and this many times its running minimum means divergence.
     velocity_limit: a cell velocity component above this (m/s) means divergence.
     pressure_gradient: gradient of p in the momentum source: ``"least_squares"`` or ``"green_gauss"``
@@ -88,6 +95,9 @@ class SimpleSettings:
     monitor_tol: float = 1e-5
     monitor_window: int = 20
     monitor_groups: tuple[str, ...] = ()
+    classify_window: int = 200
+    classify_tol: float = 1e-3
+    stall_tol: float | None = None
     pressure_gradient: str = "least_squares"
     blas_threads: int | None = 1
     divergence_factor: float = 1e5
@@ -293,10 +303,47 @@ def _solve_steady(problem, settings, state, callback):
                                             f"within {settings.monitor_tol:g} over {settings.monitor_window}"
                                             " iterations")
             break
+        if _settled(res, monitors, it, settings):
+            status, message = "converged", (
+                f"monitors stationary within {settings.classify_tol:g} over {settings.classify_window} iterations"
+                f" and scaled residuals < {settings.stall_tol:g} (largest {max(res.values()):.2e})")
+            break
+    monitor_arrays = {k: np.array(v) for k, v in monitors.items()}
+    classification = None
+    if status == "not_converged":
+        status, message, classification = _classify_at_cap(monitor_arrays, hist, settings)
     return FlowResults(problem.mesh, problem.bnd, s.u, s.p, s.flux, {k: np.array(v) for k, v in hist.items()},
                        status, message, it, problem.fluid.rho, problem.fluid.mu,
-                       time.perf_counter() - t0, {k: np.array(v) for k, v in monitors.items()},
+                       time.perf_counter() - t0, monitor_arrays, classification=classification,
                        **_turbulent_fields(problem, s))
+
+
+def _settled(res: dict, monitors: dict, it: int, cfg: SimpleSettings) -> bool:
+    """Early stop of a solve whose residuals stall above ``tol`` (limiter chatter, a k residual
+    floor): every monitor stationary within ``classify_tol`` over ``classify_window`` iterations and
+    every scaled residual below ``stall_tol``. Checked every 10 iterations; off when ``stall_tol`` is
+    None."""
+    if cfg.stall_tol is None or it < cfg.classify_window or it % 10 or max(res.values()) >= cfg.stall_tol:
+        return False
+    from .convergence import classify
+
+    window = {k: np.asarray(v[-cfg.classify_window:]) for k, v in monitors.items()}
+    return classify(window, window=cfg.classify_window, tol=cfg.classify_tol).status == "stationary"
+
+
+def _classify_at_cap(monitors: dict, hist: dict, cfg: SimpleSettings):
+    """Status, message and :class:`solver.convergence.Classification` of a solve stopped by
+    ``max_iter``: ``converged`` when every monitor is stationary within ``classify_tol`` over the last
+    ``classify_window`` iterations (the residuals stalled; their last values are in the message),
+    ``oscillating`` (bounded: use the window means) or ``not_converged`` (drifting)."""
+    from .convergence import classify
+
+    cls = classify(monitors, window=cfg.classify_window, tol=cfg.classify_tol)
+    last = max(v[-1] for v in hist.values() if len(v)) if any(len(v) for v in hist.values()) else float("nan")
+    head = f"reached max_iter = {cfg.max_iter} (largest scaled residual {last:.2e})"
+    if cls.status == "stationary":
+        return "converged", f"{head}; monitors stationary: {cls.reason}", cls
+    return cls.status, f"{head}; {cls.reason}", cls
 
 
 def _turbulent_fields(problem: Problem, s: FlowState) -> dict:
