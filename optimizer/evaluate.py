@@ -166,10 +166,14 @@ class _StageFailure(Exception):
         self.status, self.stage, self.reason = status, stage, reason
 
 
-def evaluate(config: Config, *, log: Callable[[str], None] | None = None, every: int = 50) -> Evaluation:
+def evaluate(config: Config, *, log: Callable[[str], None] | None = None, every: int = 50,
+             warm_start=None) -> Evaluation:
     """Geometry → mesh → solve → figures for the blade of ``config``; never raises for a bad blade.
 
     log: called with one line of progress per stage start/end and every ``every`` solver iterations.
+    warm_start: a :class:`solver.FlowResults` of another blade in the same flow (e.g. the previous
+        evaluation's ``artifacts["flow"]``): the solve starts from its fields transferred to this mesh
+        (:func:`solver.warmstart.mapped_state`) instead of ``solver.initial``.
     """
     say = log or (lambda _line: None)
     seconds: dict[str, float] = {}
@@ -179,7 +183,7 @@ def evaluate(config: Config, *, log: Callable[[str], None] | None = None, every:
         profile = _timed("geometry", seconds, say, _geometry, config)
         artifacts["profile"] = profile
         _, fvmesh = _timed("mesh", seconds, say, _mesh, config, profile, artifacts)
-        flow = _timed("solve", seconds, say, _solve, config, fvmesh, say, every)
+        flow = _timed("solve", seconds, say, _solve, config, fvmesh, say, every, warm_start)
         artifacts["flow"] = flow          # kept for saving, also when diverged (last finite iterate)
         if flow.status == "diverged":
             raise _StageFailure("diverged", "solve", flow.message)
@@ -267,7 +271,7 @@ def simple_settings(config: Config):
     return dataclasses.replace(SimpleSettings(), **changes)
 
 
-def _solve(config: Config, fvmesh, say, every):
+def _solve(config: Config, fvmesh, say, every, warm_start=None):
     from solver import Fluid, Problem, solve_steady
     from solver.steady import initial_state
 
@@ -298,8 +302,13 @@ def _solve(config: Config, fvmesh, say, every):
     rng_state = np.random.get_state()
     np.random.seed(0)
     try:
-        u0 = (config.flow.speed, 0.0) if s.initial == "freestream" else (0.0, 0.0)
-        flow = solve_steady(problem, simple_settings(config), initial_state(problem, u0), callback=progress)
+        if warm_start is not None:
+            from solver.warmstart import mapped_state
+
+            state = mapped_state(problem, warm_start)
+        else:
+            state = initial_state(problem, (config.flow.speed, 0.0) if s.initial == "freestream" else (0.0, 0.0))
+        flow = solve_steady(problem, simple_settings(config), state, callback=progress)
     finally:
         np.random.set_state(rng_state)
     return flow
