@@ -38,7 +38,8 @@ def face_velocity(mesh: FVMesh, u: np.ndarray, u_b: np.ndarray, grad_u: np.ndarr
 
     The linear reconstruction from both sides (:func:`solver.gradient.interpolate_corrected`) plus the
     correction to the face mean of the quadratic reconstructions (:func:`solver.gradient.face_average`),
-    each component's correction capped at ``QUADRATIC_CAP |d| (|grad u_P| + |grad u_N|) / 2``.
+    each component's correction capped at ``QUADRATIC_CAP |d| (|grad u_P| + |grad u_N|) / 2``, on faces
+    of triangles only (:func:`_triangles`).
 
     Why: with the linear face value alone the O(h²) face error does not cancel between the three faces of
     a triangle, the continuity truncation error is O(h) and alternates between neighbouring triangles,
@@ -53,9 +54,19 @@ def face_velocity(mesh: FVMesh, u: np.ndarray, u_b: np.ndarray, grad_u: np.ndarr
     lin = interpolate_corrected(mesh, u, grad_u)
     ni = mesh.n_internal
     o, n = mesh.owner[:ni], mesh.neighbour[:ni]
+    tri = _triangles(mesh)
     slope = np.linalg.norm(grad_u, axis=-1)                       # (nc, 2): |grad| of each component
     cap = QUADRATIC_CAP * np.linalg.norm(mesh.d[:ni], axis=1)[:, None] * 0.5 * (slope[o] + slope[n])
+    cap *= (tri[o] | tri[n])[:, None]
     return lin + np.clip(face_average(mesh, u, u_b) - lin, -cap, cap)
+
+
+def _triangles(mesh: FVMesh) -> np.ndarray:
+    """``(nc,)`` True for triangles: the quadratic correction applies to faces of triangles only. On
+    quadrilaterals the linear face errors of opposite faces cancel, and on the stretched boundary-layer
+    quads of an airfoil C-mesh (aspect ratios to 1e7) the quadratic fit is not trustworthy: with it the
+    NACA 0012 at 10° separated (C_D 0.034 instead of 0.0128)."""
+    return mesh.cell_faces[:, 3] < 0
 
 
 def outflow_face_velocity(mesh: FVMesh, bnd: BoundaryData, u: np.ndarray, u_b: np.ndarray,
@@ -68,6 +79,7 @@ def outflow_face_velocity(mesh: FVMesh, bnd: BoundaryData, u: np.ndarray, u_b: n
     ni = mesh.n_internal
     o = mesh.owner[ni:]
     cap = QUADRATIC_CAP * np.linalg.norm(mesh.d[ni:], axis=1)[:, None] * np.linalg.norm(grad_u[o], axis=-1)
+    cap *= _triangles(mesh)[o][:, None]
     curv = np.clip(boundary_face_curvature(mesh, u, u_b), -cap, cap)
     return u_b + np.where((bnd.velocity_kind == ZERO_GRADIENT)[:, None], curv, 0.0)
 
