@@ -91,7 +91,7 @@ def _parser() -> argparse.ArgumentParser:
         description="Run the whole pipeline for one blade: geometry and feasibility, hybrid mesh and its "
         "quality check, steady RANS (k-omega SST) or laminar solve, then the figures of the paper: F_X, F_Y "
         "(N/m and N for the span depth), C_L (Eq. 23), C_max, C_p,min = 1 - C_max²/C0², y+ on the blade, and "
-        "the convergence classification (converged, stationary, oscillating, not_converged, diverged). "
+        "the convergence class (converged, oscillating: window means, not_converged, diverged). "
         "Progress goes to stderr, the results table (or JSON) to stdout. Exit status: 0 solved (check the "
         "status: not_converged values are unreliable), 2 bad input, 3 infeasible blade, 4 a stage failed "
         "(mesh below the quality thresholds, diverged solve).",
