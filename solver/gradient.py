@@ -136,9 +136,10 @@ def quadratic_operators(mesh: FVMesh) -> dict:
 
     Each cell fits ``phi(x) = phi_P + g·(x - x_P) + ½ (x - x_P)ᵀ H (x - x_P)`` to the centroid values of its
     vertex neighbours (cells sharing a node) and the boundary-face centre values touching its nodes
-    (inverse-distance-squared weights, coordinates scaled by the cell size). Returns ``{"grad": (2 ops),
-    "hess": (3 ops: xx, xy, yy), "face": op}``, each a CSR matrix acting on ``concat(phi (nc,), phi_b
-    (nb,))``: cell gradient / Hessian entries, and the average over each internal face of the two sides'
+    (inverse-distance-squared weights, coordinates scaled by the cell size). Returns ``{"hess": (3 ops:
+    xx, xy, yy), "face": op}`` (the gradient operators are only used to build ``face`` and not kept),
+    each a CSR matrix acting on ``concat(phi (nc,), phi_b (nb,))``: cell Hessian entries, and the
+    average over each internal face of the two sides'
     reconstructions (weights ``w``, ``1 - w``) — exact for quadratic fields, where the linear
     reconstruction leaves an O(h²) face error that does not cancel between the faces of a triangle.
     """
@@ -221,7 +222,7 @@ def quadratic_operators(mesh: FVMesh) -> dict:
         for mat, c in terms:
             part = sel @ mat if c is None else sp.diags(c) @ (sel @ mat)
             face = part if face is None else face + part
-    out = {"grad": tuple(grad), "hess": tuple(hess), "face": face.tocsr(), "fallback": int(np.count_nonzero(~ok))}
+    out = {"hess": tuple(hess), "face": face.tocsr(), "fallback": int(np.count_nonzero(~ok))}
     mesh.info["quadratic"] = out
     return out
 
