@@ -52,9 +52,11 @@ def face_velocity(mesh: FVMesh, u: np.ndarray, u_b: np.ndarray, grad_u: np.ndarr
     Poiseuille flow then gets worse than with no correction at all.
     """
     lin = interpolate_corrected(mesh, u, grad_u)
+    tri = _triangles(mesh)
+    if not tri.any():                     # all quads: nothing to correct, no quadratic operators built
+        return lin
     ni = mesh.n_internal
     o, n = mesh.owner[:ni], mesh.neighbour[:ni]
-    tri = _triangles(mesh)
     slope = np.linalg.norm(grad_u, axis=-1)                       # (nc, 2): |grad| of each component
     cap = QUADRATIC_CAP * np.linalg.norm(mesh.d[:ni], axis=1)[:, None] * 0.5 * (slope[o] + slope[n])
     cap *= (tri[o] | tri[n])[:, None]
@@ -76,10 +78,13 @@ def outflow_face_velocity(mesh: FVMesh, bnd: BoundaryData, u: np.ndarray, u_b: n
     (:func:`solver.gradient.boundary_face_curvature`), capped as in :func:`face_velocity` — so that
     outflow faces carry face means like the internal faces (a developed profile leaves the domain with
     the flux it carries inside). Prescribed-velocity faces keep ``u_b``."""
+    tri = _triangles(mesh)
+    if not tri.any():
+        return u_b
     ni = mesh.n_internal
     o = mesh.owner[ni:]
     cap = QUADRATIC_CAP * np.linalg.norm(mesh.d[ni:], axis=1)[:, None] * np.linalg.norm(grad_u[o], axis=-1)
-    cap *= _triangles(mesh)[o][:, None]
+    cap *= tri[o][:, None]
     curv = np.clip(boundary_face_curvature(mesh, u, u_b), -cap, cap)
     return u_b + np.where((bnd.velocity_kind == ZERO_GRADIENT)[:, None], curv, 0.0)
 
