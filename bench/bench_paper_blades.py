@@ -7,6 +7,11 @@ y+ max, the solver's status (with the lift amplitude for ``oscillating`` runs), 
 
     OMP_NUM_THREADS=1 python bench/bench_paper_blades.py --levels coarse medium fine
     OMP_NUM_THREADS=1 python bench/bench_paper_blades.py --levels coarse --domains 2:5:5 5:10:5 10:20:10
+    OMP_NUM_THREADS=1 python bench/bench_paper_blades.py --blades table4 --levels fine --max-iter 6000 \
+        --history runs/paper_blades
+
+``--max-iter`` overrides ``solver.max_iter`` (the fine mesh needs more outer iterations than the default
+2 000); ``--history DIR`` writes each run's monitors (lift, drag, C_max per iteration) as CSV.
 
 A domain ``H:D:U`` sets ``mesh.half_height`` H, ``mesh.downstream`` D and ``mesh.upstream`` U (chords);
 the default domain is 5:10:5.
@@ -17,6 +22,9 @@ from __future__ import annotations
 import argparse
 import json
 import time
+from pathlib import Path
+
+import numpy as np
 
 from optimizer.config import load_config
 from optimizer.evaluate import evaluate
@@ -24,12 +32,16 @@ from optimizer.evaluate import evaluate
 BLADES = {"table4": "configs/examples/table4_c2_design.yaml", "table5": "configs/examples/table5_g1_toolpath.yaml"}
 
 
-def one(blade: str, level: str, domain: str) -> dict:
+def one(blade: str, level: str, domain: str, max_iter: int = 0, history: Path | None = None) -> dict:
     h, d, u = domain.split(":")
-    config = load_config(BLADES[blade], [f"mesh.level={level}", f"mesh.half_height={h}",
-                                         f"mesh.downstream={d}", f"mesh.upstream={u}"])
+    overrides = [f"mesh.level={level}", f"mesh.half_height={h}", f"mesh.downstream={d}", f"mesh.upstream={u}"]
+    if max_iter:
+        overrides.append(f"solver.max_iter={max_iter}")
+    config = load_config(BLADES[blade], overrides)
     t0 = time.perf_counter()
     ev = evaluate(config)
+    if history is not None and "flow" in ev.artifacts:
+        write_history(ev.artifacts["flow"].monitors, history / f"{blade}_{level}_{domain.replace(':', '-')}.csv")
     row = {"blade": blade, "level": level, "domain": domain, "seconds": time.perf_counter() - t0,
            **ev.summary()}
     cls = ev.classification
@@ -44,14 +56,24 @@ def one(blade: str, level: str, domain: str) -> dict:
     return row
 
 
+def write_history(monitors: dict, path: Path) -> None:
+    """The monitors (one column each, one row per outer iteration) as CSV."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    names = sorted(monitors)
+    columns = np.column_stack([np.asarray(monitors[n], dtype=float) for n in names])
+    np.savetxt(path, columns, delimiter=",", header=",".join(names), comments="")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--blades", nargs="+", default=list(BLADES), choices=list(BLADES))
     ap.add_argument("--levels", nargs="+", default=["coarse", "medium"])
     ap.add_argument("--domains", nargs="+", default=["5:10:5"])
+    ap.add_argument("--max-iter", type=int, default=0, help="override solver.max_iter (0: config default)")
+    ap.add_argument("--history", type=Path, default=None, help="folder for per-run monitor CSVs")
     ap.add_argument("--out", default=None, help="JSON lines file for the records")
     a = ap.parse_args()
-    rows = [one(b, lv, dom) for b in a.blades for lv in a.levels for dom in a.domains]
+    rows = [one(b, lv, dom, a.max_iter, a.history) for b in a.blades for lv in a.levels for dom in a.domains]
     if a.out:
         with open(a.out, "w") as fh:
             for r in rows:

@@ -10,10 +10,15 @@ inlet turbulence, k-ω SST) at ``--level``, and prints:
 * the lift amplitude and period of the ``oscillating`` ones (relative to their mean lift);
 * a check that no figure is NaN or infinite.
 
-Every record (parameters, status, figures, classification) goes to ``--out`` as JSON lines, so that any
-blade can be re-run on its own (``millfoil evaluate`` with its parameters).
+Every record (blade index, parameters, status, figures, classification) goes to ``--out`` as JSON lines as
+soon as it is done, so that any blade can be re-run on its own (``millfoil evaluate`` with its parameters).
+A sweep that is stopped resumes: blades already in ``--out`` are not evaluated again. ``--shard K/N`` takes
+every N-th blade from K (0-based), for splitting one sweep over processes or machines; ``--report FILE ...``
+prints the summary of finished record files without evaluating anything.
 
     python bench/bench_robustness.py --blades 50 --level medium --workers 2 --out runs/bench_robustness.jsonl
+    python bench/bench_robustness.py --blades 50 --level medium --workers 1 --shard 0/2 --out runs/r0.jsonl
+    python bench/bench_robustness.py --report runs/r0.jsonl runs/r1.jsonl
 """
 
 from __future__ import annotations
@@ -50,16 +55,16 @@ def draw_blades(n: int, seed: int, max_draws: int = 200_000) -> list[tuple[str, 
     return out
 
 
-def evaluate_one(task: tuple[str, str, dict, str, int]) -> dict:
+def evaluate_one(task: tuple[int, str, str, dict, str, int]) -> dict:
     """Evaluate one blade; never raises: the outcome is in the record."""
     from optimizer.config import Config
     from optimizer.evaluate import evaluate
 
-    mode, cont, params, level, max_iter = task
+    index, mode, cont, params, level, max_iter = task
     raw = {"blade": {"mode": mode, "continuity": cont, "parameters": params}, "mesh": {"level": level}}
     if max_iter:
         raw["solver"] = {"max_iter": max_iter}
-    record = {"mode": mode, "continuity": cont, "parameters": params, "level": level}
+    record = {"index": index, "mode": mode, "continuity": cont, "parameters": params, "level": level}
     start = time.perf_counter()
     try:
         ev = evaluate(Config.model_validate(raw))
@@ -102,6 +107,25 @@ def report(records: list[dict]) -> None:
         print(f"  {r['status']} {r['mode']} {r['continuity']} at {r.get('stage')}: {r.get('message')}")
 
 
+def read_records(paths: list[Path]) -> list[dict]:
+    """The records of finished blades in ``paths`` (missing files are empty), one per blade index."""
+    records = {}
+    for path in paths:
+        if path.exists():
+            for line in path.read_text().splitlines():
+                if line.strip():
+                    rec = json.loads(line)
+                    records[rec.get("index", len(records))] = rec
+    return [records[k] for k in sorted(records)]
+
+
+def parse_shard(text: str) -> tuple[int, int]:
+    k, n = (int(v) for v in text.split("/"))
+    if not 0 <= k < n:
+        raise argparse.ArgumentTypeError(f"--shard K/N needs 0 <= K < N, got {text!r}")
+    return k, n
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--blades", type=int, default=50)
@@ -110,22 +134,29 @@ def main() -> None:
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--max-iter", type=int, default=0, help="override solver.max_iter (0: config default)")
     parser.add_argument("--out", type=Path, default=Path("runs/bench_robustness.jsonl"))
+    parser.add_argument("--shard", type=parse_shard, default=(0, 1), help="K/N: every N-th blade from K")
+    parser.add_argument("--report", type=Path, nargs="+", help="summarise these record files and stop")
     args = parser.parse_args()
+    if args.report:
+        report(read_records(args.report))
+        return
     blades = draw_blades(args.blades, args.seed)
+    k, n = args.shard
+    done = {r["index"] for r in read_records([args.out]) if "index" in r}
+    tasks = [(i, m, c, p, args.level, args.max_iter) for i, (m, c, p) in enumerate(blades)
+             if i % n == k and i not in done]
     print(f"{platform.node()} {platform.processor() or platform.machine()}, {args.workers} workers, "
-          f"level {args.level}, seed {args.seed}: {len(blades)} feasible blades drawn")
+          f"level {args.level}, seed {args.seed}: {len(blades)} feasible blades drawn, shard {k}/{n}, "
+          f"{len(done)} already in {args.out}, {len(tasks)} to evaluate")
     args.out.parent.mkdir(parents=True, exist_ok=True)
-    tasks = [(m, c, p, args.level, args.max_iter) for m, c, p in blades]
-    records = []
-    with ProcessPoolExecutor(args.workers) as pool, args.out.open("w") as fh:
+    with ProcessPoolExecutor(args.workers) as pool, args.out.open("a") as fh:
         for i, rec in enumerate(pool.map(evaluate_one, tasks), 1):
-            records.append(rec)
             fh.write(json.dumps(rec, default=str) + "\n")
             fh.flush()
             print(f"[{i}/{len(tasks)}] {rec['mode']} {rec['continuity']}: {rec['status']}"
                   f" F_Y {rec.get('F_Y')} C_max {rec.get('C_max')} ({rec.get('seconds_total', 0):.0f} s)",
                   flush=True)
-    report(records)
+    report(read_records([args.out]))
 
 
 if __name__ == "__main__":
