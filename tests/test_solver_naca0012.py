@@ -155,8 +155,8 @@ def test_restart_state_roundtrip(tmp_path):
 
 def test_sst_alpha10_coarse_matches_cfl3d():
     """From the potential start, k-omega SST (low_re) at alpha = 10 deg on the coarse C-mesh (10 800 cells):
-    measured C_L 1.0618 (-1.48 % of CFL3D's 1.0778), C_D 0.012064 (-2.41 % of 0.012362), C_p RMS 0.077,
-    converged after 1 900 iterations (212 s on the development machine). The issue's tolerances: C_L 2 %,
+    measured C_L 1.0616 (-1.50 % of CFL3D's 1.0778), C_D 0.012056 (-2.48 % of 0.012362), C_p RMS 0.077,
+    converged after 1 700 iterations (183 s on the development machine). The issue's tolerances: C_L 2 %,
     C_D 8 %. The earlier SST variant (linear-upwind k/omega) gave C_D +8.6 % on the medium mesh, and the
     quadratic face flux on these quads separated the flow (C_D 0.034; docs/naca0012.md)."""
     from solver.validation import run_case
