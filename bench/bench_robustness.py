@@ -19,6 +19,10 @@ prints the summary of finished record files without evaluating anything.
     python bench/bench_robustness.py --blades 50 --level medium --workers 2 --out runs/bench_robustness.jsonl
     python bench/bench_robustness.py --blades 50 --level medium --workers 1 --shard 0/2 --out runs/r0.jsonl
     python bench/bench_robustness.py --report runs/r0.jsonl runs/r1.jsonl
+    python bench/bench_robustness.py --retry runs/r0.jsonl runs/r1.jsonl --max-iter 4000 --out runs/retry.jsonl
+
+``--retry FILE ...`` evaluates again the blades of those records whose status is ``--retry-status``
+(default ``not_converged``), at their level, e.g. with a larger ``--max-iter``.
 """
 
 from __future__ import annotations
@@ -136,18 +140,25 @@ def main() -> None:
     parser.add_argument("--out", type=Path, default=Path("runs/bench_robustness.jsonl"))
     parser.add_argument("--shard", type=parse_shard, default=(0, 1), help="K/N: every N-th blade from K")
     parser.add_argument("--report", type=Path, nargs="+", help="summarise these record files and stop")
+    parser.add_argument("--retry", type=Path, nargs="+", help="re-evaluate blades of these record files")
+    parser.add_argument("--retry-status", default="not_converged", help="which records --retry takes")
     args = parser.parse_args()
     if args.report:
         report(read_records(args.report))
         return
-    blades = draw_blades(args.blades, args.seed)
     k, n = args.shard
     done = {r["index"] for r in read_records([args.out]) if "index" in r}
-    tasks = [(i, m, c, p, args.level, args.max_iter) for i, (m, c, p) in enumerate(blades)
-             if i % n == k and i not in done]
+    if args.retry:
+        tasks = [(r["index"], r["mode"], r["continuity"], r["parameters"], r["level"], args.max_iter)
+                 for r in read_records(args.retry) if r["status"] == args.retry_status and r["index"] not in done]
+    else:
+        blades = draw_blades(args.blades, args.seed)
+        tasks = [(i, m, c, p, args.level, args.max_iter) for i, (m, c, p) in enumerate(blades)
+                 if i % n == k and i not in done]
     print(f"{platform.node()} {platform.processor() or platform.machine()}, {args.workers} workers, "
-          f"level {args.level}, seed {args.seed}: {len(blades)} feasible blades drawn, shard {k}/{n}, "
-          f"{len(done)} already in {args.out}, {len(tasks)} to evaluate")
+          + (f"retrying the {args.retry_status} blades of {len(args.retry)} record files"
+             if args.retry else f"level {args.level}, seed {args.seed}, shard {k}/{n}")
+          + f": {len(done)} blades already in {args.out}, {len(tasks)} to evaluate")
     args.out.parent.mkdir(parents=True, exist_ok=True)
     with ProcessPoolExecutor(args.workers) as pool, args.out.open("a") as fh:
         for i, rec in enumerate(pool.map(evaluate_one, tasks), 1):
