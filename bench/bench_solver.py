@@ -42,7 +42,8 @@ def bench(n: int, re: int, max_iter: int, kind: str) -> dict:
 def bench_cylinder(n_quarter: int, max_iter: int) -> dict:
     """DFG 2D-1 on :func:`solver.gmsh_meshes.dfg_cylinder` with ``n_quarter`` cells per cylinder quarter
     and the far-field size scaled with it (``h_far = 0.3 / n_quarter`` m); ``rms`` is the C_D error."""
-    from solver.cylinder import BOUNDARY_CONDITIONS as CYL_BC, FLUID, coefficients, cylinder_settings, errors
+    from solver.cylinder import BOUNDARY_CONDITIONS as CYL_BC
+    from solver.cylinder import FLUID, coefficients, cylinder_settings, errors
     from solver.gmsh_meshes import dfg_cylinder
 
     t0 = time.perf_counter()

@@ -437,8 +437,8 @@ def even_out_ring(layers: np.ndarray, fraction: np.ndarray, sigma: float | None 
     (default ``RING_SMOOTH``);
     layer j's relative spacing ``a_j`` is multiplied by ``(a* / a_ring)^b_j`` (then normalised), ``a*`` the
     smoothed ring spacing and ``b_j = ((mean(fraction_j) - f0) / (1 - f0))²`` clipped to [0, 1],
-    ``f0 = RING_BLEND_START``: the layers within ``f0`` of the wall are untouched, the spacings stay positive so the order of the nodes is kept, and each node
-    moves only as far as the local change of ring spacing asks. Ray 0 stays in place.
+    ``f0 = RING_BLEND_START``: the layers within ``f0`` of the wall are untouched, the spacings stay positive so the order of
+    the nodes is kept, and each node moves only as far as the local change of ring spacing asks. Ray 0 stays in place.
     """
     sigma = RING_SMOOTH if sigma is None else sigma
     rays, n, _ = layers.shape

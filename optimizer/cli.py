@@ -16,7 +16,7 @@ import time
 from collections.abc import Sequence
 from pathlib import Path
 
-from geometry import DEFAULT_TOLERANCE, Mode, evaluate_blade, parameters_of
+from geometry import DEFAULT_TOLERANCE, evaluate_blade, parameters_of
 from optimizer.config import ConfigError, load_config
 
 EXIT_OK, EXIT_INPUT, EXIT_INFEASIBLE, EXIT_FAILED = 0, 2, 3, 4

@@ -28,8 +28,7 @@ from .fvmesh import FVMesh
 from .gradient import green_gauss_gradient, limited_gradient, ls_gradient
 from .linalg import FVPattern, SolverSettings
 from .momentum import momentum_system
-from .pressure import (correct_flux, mass_imbalance, predicted_velocity_flux, pressure_correction_system,
-                       rhie_chow_flux)
+from .pressure import correct_flux, mass_imbalance, predicted_velocity_flux, pressure_correction_system, rhie_chow_flux
 from .results import FlowResults
 from .turbulence import SST, SSTSetup, initial_fields, momentum_viscosity, turbulence_step
 

@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 import shapely
-
 from envelope import exact_machined, hausdorff
+
 from geometry import BezierCurve, BladeSpec, ParameterSpace, blade_curves, build_profile, evaluate_blade, machine
 from geometry.blade import tool_path_pieces
 from geometry.examples import TABLE5_G1_TOOLPATH

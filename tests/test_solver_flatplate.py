@@ -7,8 +7,16 @@ Issue tolerances on finer meshes (not run here): ``python -m solver.flatplate --
 import numpy as np
 import pytest
 
-from solver.flatplate import (LEVELS, REFERENCE, X_CF, flatplate_mesh, flatplate_settings, geometric,
-                              load_reference_cf, run_flatplate)
+from solver.flatplate import (
+    LEVELS,
+    REFERENCE,
+    X_CF,
+    flatplate_mesh,
+    flatplate_settings,
+    geometric,
+    load_reference_cf,
+    run_flatplate,
+)
 from solver.validation import CASES, run_case
 
 

@@ -8,8 +8,15 @@ import dataclasses
 import numpy as np
 import pytest
 
-from solver.naca_mesh import (LEVELS, CMeshSpec, naca0012_cmesh, naca0012_half_thickness, quality,
-                              surface_points, vinokur)
+from solver.naca_mesh import (
+    LEVELS,
+    CMeshSpec,
+    naca0012_cmesh,
+    naca0012_half_thickness,
+    quality,
+    surface_points,
+    vinokur,
+)
 
 
 @pytest.fixture(scope="module")

@@ -12,9 +12,23 @@ from solver.fvmesh import build_fvmesh
 from solver.meshes import square_mesh
 from solver.momentum import momentum_system
 from solver.steady import Fluid, Problem, SimpleSettings, initial_state, solve_steady
-from solver.turbulence import (SST, SSTConstants, TMR_FREESTREAM, WALL_TREATMENTS, blend, cross_diffusion,
-                               eddy_viscosity, f1, f2, inlet_turbulence, omega_flux_factor, omega_log,
-                               omega_viscous, production, spalding_u_tau)
+from solver.turbulence import (
+    SST,
+    TMR_FREESTREAM,
+    WALL_TREATMENTS,
+    SSTConstants,
+    blend,
+    cross_diffusion,
+    eddy_viscosity,
+    f1,
+    f2,
+    inlet_turbulence,
+    omega_flux_factor,
+    omega_log,
+    omega_viscous,
+    production,
+    spalding_u_tau,
+)
 from solver.walldistance import segment_distance, wall_distance
 
 C = SSTConstants()
