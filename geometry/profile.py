@@ -59,6 +59,11 @@ class Profile:
         return self.curves.spec
 
     @property
+    def chord(self) -> float:
+        """Chord length L of the blade, m (the camber line's length parameter, Eq. 1 of the paper)."""
+        return float(self.spec["L"])
+
+    @property
     def leading_edge(self) -> Array:
         return self.points[self.le_index]
 
