@@ -10,7 +10,7 @@ from geometry.examples import TABLE4_C2_DESIGN, TABLE5_G1_TOOLPATH
 from optimizer.cli import EXIT_FAILED, EXIT_INFEASIBLE, EXIT_INPUT, EXIT_OK, main
 from optimizer.config import ConfigError, load_config
 
-EXAMPLES = Path(__file__).parents[1] / "configs" / "examples"
+EXAMPLES = Path(__file__).parents[2] / "configs" / "examples"
 
 
 @pytest.mark.parametrize("name,embedded", [("table4_c2_design.yaml", TABLE4_C2_DESIGN),

@@ -16,7 +16,7 @@ import yaml
 from optimizer.config import ConfigError, load_config
 from optimizer.evaluate import SIDES, evaluate, save
 
-BENCH = Path(__file__).parents[1] / "configs" / "examples" / "bench_g1_design.yaml"
+BENCH = Path(__file__).parents[2] / "configs" / "examples" / "bench_g1_design.yaml"
 LAMINAR = ["solver.model=laminar", "flow.speed=0.2", "flow.viscosity=0.9982", "mesh.level=coarse",
            "mesh.half_height=5", "mesh.y_plus=0.05", "solver.algorithm=simplec", "solver.alpha_u=0.9",
            "solver.alpha_p=null", "solver.tol=1e-5", "solver.max_iter=600"]
