@@ -1,4 +1,4 @@
-"""N-buffer machining simulation against the exact envelope (tests/envelope.py)."""
+"""N-buffer machining simulation against the exact envelope (tests/geometry/envelope.py)."""
 
 import numpy as np
 import pytest
