@@ -1,0 +1,1 @@
+"""Optimisation campaigns: YAML-configured, parallel, resumable NSGA-II runs over the evaluation pipeline."""

@@ -1,0 +1,626 @@
+"""Execution of a campaign's evaluations: in process, on a dask ``LocalCluster``, a scheduler or SLURM/PBS.
+
+The campaign driver hands a batch of :class:`Task` (one per blade still to evaluate) and a picklable
+module-level function ``fn(payload: dict) -> dict`` to a runner and receives one :class:`TaskResult` per
+task **as each one completes**, never in submission order and never aborting the batch on one failure
+(pymoo's own dask runner waits in order and re-raises the first exception)::
+
+    runner = make_runner(execution_config)      # backend chosen from a registry keyed by name
+    with runner:                                # starts / stops the cluster
+        for result in runner.run(fn, tasks):    # TaskResult as completed
+            store.save(result)
+
+Statuses of a :class:`TaskResult`:
+
+* ``done``: ``fn`` returned; :attr:`TaskResult.record` is its dict (the evaluation's own status, e.g. a
+  mesh failure or a diverged solve, lives inside the record).
+* ``timeout``: the evaluation ran longer than ``execution.timeout`` seconds (counted from the moment it
+  started on a worker, not from submission: queued tasks do not time out). Its future is cancelled.
+* ``worker_lost``: the worker running it died (process killed, node lost, job cancelled) more than
+  ``execution.retries`` times; each loss before that resubmits the task.
+* ``error``: ``fn`` raised (a bug: the pipeline records bad blades instead of raising); the reason names
+  the exception and where it was raised.
+
+**Deadline.** A running Python function cannot be interrupted by cancelling its future, so the runner
+adds one key to the payload it passes to ``fn``: ``payload["deadline_s"]``, the Unix time (s, as
+``time.time()`` on the worker) at which the runner gives up on the evaluation. ``fn`` should drop this key
+before hashing or validating the payload and should stop the solve between iterations once
+``time.time() > deadline_s`` (the evaluation then ends as the runner's ``timeout``). If the worker is still
+busy with the cancelled evaluation ``execution.timeout_grace`` seconds after the deadline, the runner
+restarts that worker process (the tasks that were queued behind it are resubmitted without counting a
+retry). The ``inline`` backend passes the deadline too but cannot enforce it.
+
+Backends (:data:`RUNNERS`):
+
+* ``inline``: ``fn`` called in this process, one task after the other (tests, debugging).
+* ``local``: a ``distributed.LocalCluster`` with one single-threaded worker process per core (or
+  ``execution.workers``), BLAS/OpenMP pinned to one thread, no dashboard.
+* ``scheduler``: an existing dask scheduler at ``execution.address``.
+* ``slurm``, ``pbs``: ``dask-jobqueue`` clusters of ``execution.workers`` jobs whose workers retire before
+  the wall time (``--lifetime``, ``--lifetime-stagger``) and are replaced by new jobs.
+
+Where the runner owns the scheduler (local, slurm, pbs) it sets ``allowed-failures`` to 0 and
+``worker-saturation`` to 1.0, so a worker death surfaces at once as ``KilledWorker`` (the runner counts
+retries itself) and a single-threaded worker holds only the task it is running. An external scheduler keeps
+its own settings: its ``allowed-failures`` retries come on top of ``execution.retries``.
+
+See ``docs/campaigns-cluster.md``.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import os
+import re
+import time
+import traceback
+import uuid
+from abc import ABC, abstractmethod
+from collections import deque
+from collections.abc import Callable, Iterable, Iterator, Mapping
+from dataclasses import dataclass
+from typing import Any, ClassVar
+
+from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
+
+log = logging.getLogger(__name__)
+
+#: Environment of every worker process: the evaluations are parallel across processes, so BLAS and
+#: OpenMP inside each must not spawn threads that fight for the same cores.
+PINNED_THREADS_ENV = {"OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
+#: Event topic on which a worker announces that it started a task (its timeout clock starts then).
+START_TOPIC = "millfoil-task-start"
+#: How long the result loop waits for a completion before checking timeouts and stuck workers, s.
+POLL_S = 0.2
+
+
+# --------------------------------------------------------------------------------------------------
+# Configuration
+# --------------------------------------------------------------------------------------------------
+
+
+class _Section(BaseModel):
+    """A frozen configuration section whose unknown keys are an error naming the allowed ones."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid")
+
+    @model_validator(mode="before")
+    @classmethod
+    def _reject_unknown_keys(cls, data: Any) -> Any:
+        if isinstance(data, Mapping):
+            unknown = sorted(set(data) - set(cls.model_fields))
+            if unknown:
+                allowed = ", ".join(cls.model_fields)
+                raise ValueError(f"unknown key {', '.join(map(repr, unknown))}; allowed keys: {allowed}")
+        return data
+
+
+_WALLTIME = re.compile(r"^(?:(\d+)-)?(\d+):(\d{2})(?::(\d{2}))?$")
+
+
+def walltime_seconds(walltime: str) -> float:
+    """Seconds of a SLURM/PBS wall time ``[D-]HH:MM[:SS]`` (``"01:30:00"`` → 5400.0)."""
+    m = _WALLTIME.match(walltime.strip())
+    if not m:
+        raise ValueError(f"walltime {walltime!r} is not [D-]HH:MM[:SS]")
+    days, hours, minutes, seconds = (int(g) if g else 0 for g in m.groups())
+    return float(((days * 24 + hours) * 60 + minutes) * 60 + seconds)
+
+
+def _timedelta_seconds(value: str) -> float:
+    """Seconds of a dask time string (``"55m"``, ``"1h"``, ``"90s"``)."""
+    from dask.utils import parse_timedelta
+
+    try:
+        return float(parse_timedelta(value))
+    except (ValueError, KeyError, TypeError) as exc:
+        raise ValueError(f"{value!r} is not a duration such as '50m', '1h' or '90s'") from exc
+
+
+class ClusterOptions(_Section):
+    """Options of a ``dask-jobqueue`` cluster (``execution.cluster``; used by backends ``slurm``, ``pbs``).
+
+    One job runs ``processes`` single-threaded workers on ``cores`` cores (``processes`` defaults to
+    ``cores``). Workers retire after ``lifetime`` ± ``lifetime_stagger`` (dask durations such as ``"50m"``),
+    before the scheduler's wall time kills the job, and the runner starts a new job in their place; an
+    evaluation cut by a retirement is resubmitted. Defaults: with ``m = min(5 min, walltime / 10)``,
+    ``lifetime = walltime - 2 m`` and ``lifetime_stagger = m``, so workers leave between ``walltime - 3 m``
+    and ``walltime - m``.
+    """
+
+    queue: str | None = None
+    account: str | None = None
+    walltime: str = "01:00:00"
+    cores: int = Field(1, ge=1)
+    processes: int | None = Field(None, ge=1)
+    memory: str = "4GiB"
+    job_extra_directives: tuple[str, ...] = ()
+    job_script_prologue: tuple[str, ...] = ()
+    local_directory: str | None = None
+    log_directory: str | None = None
+    interface: str | None = None
+    python: str | None = None
+    lifetime: str | None = None
+    lifetime_stagger: str | None = None
+
+    @field_validator("walltime")
+    @classmethod
+    def _walltime_format(cls, value: str) -> str:
+        walltime_seconds(value)
+        return value
+
+    @field_validator("lifetime", "lifetime_stagger")
+    @classmethod
+    def _duration_format(cls, value: str | None) -> str | None:
+        if value is not None:
+            _timedelta_seconds(value)
+        return value
+
+    @model_validator(mode="after")
+    def _consistent(self) -> ClusterOptions:
+        if self.cores % self.worker_processes:
+            raise ValueError(f"cores ({self.cores}) must be a multiple of processes ({self.processes})")
+        lifetime, stagger = self.lifetimes_s()
+        if lifetime + stagger >= walltime_seconds(self.walltime):
+            raise ValueError(f"lifetime + lifetime_stagger ({lifetime:g} s + {stagger:g} s) must be shorter than "
+                             f"walltime {self.walltime!r}, or workers are killed by the wall time")
+        return self
+
+    @property
+    def worker_processes(self) -> int:
+        """Worker processes per job (single-threaded workers: ``cores`` unless set)."""
+        return self.processes or self.cores
+
+    def lifetimes_s(self) -> tuple[float, float]:
+        """(lifetime, stagger) of a worker in seconds, the defaults derived from the wall time."""
+        margin = min(300.0, walltime_seconds(self.walltime) / 10)
+        stagger = _timedelta_seconds(self.lifetime_stagger) if self.lifetime_stagger else margin
+        lifetime = (_timedelta_seconds(self.lifetime) if self.lifetime
+                    else walltime_seconds(self.walltime) - 2 * margin)
+        return lifetime, stagger
+
+
+class ExecutionConfig(_Section):
+    """Where and how evaluations run (the ``execution:`` section of a campaign).
+
+    backend: one of :data:`RUNNERS`. workers: worker processes (``local``; default one per core) or
+    jobs (``slurm``/``pbs``; default 1). timeout: seconds an evaluation may run on a worker. retries: how
+    many times an evaluation lost with its worker is resubmitted before it is recorded ``worker_lost``.
+    timeout_grace: seconds a worker may keep running a timed-out evaluation before it is restarted.
+    address: the scheduler (``scheduler`` backend only), e.g. ``tcp://10.0.0.1:8786``. cluster:
+    :class:`ClusterOptions` (``slurm``/``pbs`` only).
+    """
+
+    backend: str = "local"
+    workers: int | None = Field(None, ge=1)
+    timeout: float = Field(1800.0, gt=0)
+    retries: int = Field(2, ge=0)
+    timeout_grace: float = Field(60.0, ge=0)
+    address: str | None = None
+    cluster: ClusterOptions = ClusterOptions()
+
+    @field_validator("backend")
+    @classmethod
+    def _known_backend(cls, value: str) -> str:
+        if value not in RUNNERS:
+            raise ValueError(f"unknown backend {value!r}; allowed: {', '.join(RUNNERS)}")
+        return value
+
+    @model_validator(mode="after")
+    def _address_for_scheduler_only(self) -> ExecutionConfig:
+        if self.backend == "scheduler" and not self.address:
+            raise ValueError("backend 'scheduler' needs address (e.g. 'tcp://host:8786')")
+        if self.backend != "scheduler" and self.address:
+            raise ValueError(f"address is used by backend 'scheduler' only, not {self.backend!r}")
+        return self
+
+
+# --------------------------------------------------------------------------------------------------
+# Tasks and results
+# --------------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Task:
+    """One evaluation to run: ``fn(payload)`` on some worker.
+
+    key: content hash of everything that determines the result (the store's key). payload: JSON-able,
+    passed to ``fn`` with ``deadline_s`` added (see the module docstring). generation: the campaign
+    generation that asked for it.
+    """
+
+    key: str
+    payload: dict
+    generation: int
+
+
+@dataclass(frozen=True)
+class TaskResult:
+    """The outcome of one :class:`Task`.
+
+    record: what ``fn`` returned, or None if it did not return. status: ``done``, ``timeout``,
+    ``worker_lost`` or ``error``. reason: why, for all but ``done`` (``""`` then). worker: address of the
+    worker that ran the last attempt (``""`` inline or when unknown). seconds: wall time seen by the runner
+    from the start of the last attempt on a worker (its submission if it never started) to its end, s.
+    attempts: how many times it was submitted, not counting resubmissions after a worker restart that the
+    runner itself caused (a task queued behind a timed-out one).
+    """
+
+    key: str
+    generation: int
+    record: dict | None
+    status: str
+    reason: str
+    worker: str
+    seconds: float
+    attempts: int = 1
+
+
+#: Statuses of :class:`TaskResult`.
+STATUSES = ("done", "timeout", "worker_lost", "error")
+
+
+def _with_deadline(payload: Mapping, timeout: float) -> dict:
+    """The payload ``fn`` receives: a copy with ``deadline_s`` (Unix time, s) ``timeout`` seconds from now."""
+    return {**payload, "deadline_s": time.time() + timeout}
+
+
+def _describe(exc: BaseException) -> str:
+    """``Type: message (at file:line in function)`` of an exception, for :attr:`TaskResult.reason`."""
+    text = f"{type(exc).__name__}: {exc}"
+    frames = traceback.extract_tb(exc.__traceback__)
+    if frames:
+        last = frames[-1]
+        text += f" (at {os.path.basename(last.filename)}:{last.lineno} in {last.name})"
+    return text
+
+
+# --------------------------------------------------------------------------------------------------
+# Runners
+# --------------------------------------------------------------------------------------------------
+
+
+class Runner(ABC):
+    """Runs batches of tasks; a context manager that starts and stops its workers."""
+
+    def __init__(self, config: ExecutionConfig):
+        self.config = config
+
+    def __enter__(self) -> Runner:
+        self.start()
+        return self
+
+    def __exit__(self, *exc_info) -> None:
+        self.close()
+
+    @abstractmethod
+    def start(self) -> None:
+        """Start the workers (or connect to them)."""
+
+    @abstractmethod
+    def close(self) -> None:
+        """Stop the workers this runner started."""
+
+    @property
+    @abstractmethod
+    def workers(self) -> int:
+        """Workers connected now (for progress displays)."""
+
+    @abstractmethod
+    def run(self, fn: Callable[[dict], dict], tasks: Iterable[Task]) -> Iterator[TaskResult]:
+        """Run ``fn`` on every task; yield one :class:`TaskResult` per task as each completes."""
+
+
+class InlineRunner(Runner):
+    """``fn`` in this process, one task after the other; the timeout is passed as a deadline, not enforced."""
+
+    def start(self) -> None:
+        """Nothing to start: tasks run in this process."""
+
+    def close(self) -> None:
+        """Nothing to stop."""
+
+    @property
+    def workers(self) -> int:
+        return 1
+
+    def run(self, fn: Callable[[dict], dict], tasks: Iterable[Task]) -> Iterator[TaskResult]:
+        for task in tasks:
+            t0 = time.monotonic()
+            try:
+                record = fn(_with_deadline(task.payload, self.config.timeout))
+            except Exception as exc:  # a raise from fn is a bug to report, not a reason to stop the batch
+                yield TaskResult(task.key, task.generation, None, "error", _describe(exc), "",
+                                 time.monotonic() - t0)
+                continue
+            yield TaskResult(task.key, task.generation, record, "done", "", "", time.monotonic() - t0)
+
+
+def _execute(fn: Callable[[dict], dict], payload: dict, key: str, timeout: float) -> dict:
+    """Worker side of one attempt: announce the start, call ``fn``, report its record or its exception."""
+    from distributed import get_worker
+
+    worker = get_worker()
+    worker.log_event(START_TOPIC, {"key": key, "worker": worker.address})
+    try:
+        record = fn(_with_deadline(payload, timeout))
+    except Exception as exc:
+        return {"worker": worker.address, "record": None, "error": _describe(exc)}
+    return {"worker": worker.address, "record": record, "error": None}
+
+
+def _is_executing(key: str, dask_worker=None) -> bool:
+    """Whether ``dask_worker`` is still running task ``key`` (run on the worker through ``Client.run``)."""
+    return any(ts.key == key for ts in dask_worker.state.executing)
+
+
+@dataclass
+class _Attempt:
+    """One submission of a task: its dask key, how many losses came before, when it was submitted."""
+
+    task: Task
+    key: str
+    losses: int
+    submitted: float
+
+
+class DaskRunner(Runner):
+    """Runs tasks on a dask cluster: submit all, gather as completed, time out, resubmit lost ones."""
+
+    #: Scheduler settings where this runner creates the scheduler (see the module docstring).
+    SCHEDULER_CONFIG: ClassVar[dict] = {"distributed.scheduler.allowed-failures": 0,
+                                        "distributed.scheduler.worker-saturation": 1.0}
+
+    def __init__(self, config: ExecutionConfig):
+        super().__init__(config)
+        self.cluster = None
+        self.client = None
+        self._started: dict[str, tuple[float, str]] = {}  # dask key -> (monotonic start, worker)
+        self._stuck: dict[str, tuple[str, float]] = {}  # cancelled key -> (worker, when to check it)
+        self._restarted: set[str] = set()  # workers this runner restarted (their losses are not retries)
+
+    # ---- cluster lifecycle ------------------------------------------------------------------------
+
+    @abstractmethod
+    def _make_cluster(self):
+        """The cluster to connect to, or None where :meth:`_address` is used."""
+
+    def _address(self) -> str | None:
+        return None
+
+    def start(self) -> None:
+        import dask
+        from distributed import Client
+
+        with dask.config.set(self.SCHEDULER_CONFIG):
+            self.cluster = self._make_cluster()
+        self.client = Client(self.cluster if self.cluster is not None else self._address())
+        self.client.subscribe_topic(START_TOPIC, self._on_start)
+
+    def close(self) -> None:
+        if self.client is not None:
+            self.client.close()
+        if self.cluster is not None:
+            self.cluster.close()
+        self.client = self.cluster = None
+
+    @property
+    def workers(self) -> int:
+        return len(self.client.nthreads()) if self.client is not None else 0
+
+    def _on_start(self, event: tuple[float, dict]) -> None:
+        """Start-event handler (client event loop): the attempt's timeout clock starts now."""
+        msg = event[1]
+        self._started[msg["key"]] = (time.monotonic(), msg["worker"])
+
+    # ---- the batch --------------------------------------------------------------------------------
+
+    def run(self, fn: Callable[[dict], dict], tasks: Iterable[Task]) -> Iterator[TaskResult]:
+        from distributed import as_completed
+
+        if self.client is None:
+            raise RuntimeError("runner not started: use it as a context manager ('with runner: ...')")
+        ac = as_completed()
+        waiting: deque[tuple[Task, int]] = deque((task, 0) for task in tasks)  # (task, losses so far)
+        pending: dict = {}  # future -> _Attempt
+        try:
+            while waiting or pending:
+                self._submit_to_free_threads(fn, waiting, pending, ac)
+                self._wait_for_completion(ac)
+                for future in ac.next_batch(block=False):
+                    attempt = pending.pop(future, None)
+                    if attempt is not None:  # None: a future this runner cancelled on timeout
+                        result = self._settle(future, attempt, waiting)
+                        if result is not None:
+                            yield result
+                yield from self._expire(pending)
+                self._restart_stuck_workers()
+        finally:
+            if pending:  # the consumer stopped early: do not leave the batch running
+                self.client.cancel(list(pending))
+
+    def _submit_to_free_threads(self, fn, waiting: deque, pending: dict, ac) -> None:
+        """Submit waiting tasks while worker threads are free.
+
+        Submitting only what can start at once (rather than the whole batch) keeps an evaluation from
+        queueing on a worker behind a long one while another worker idles: dask's own queueing applies
+        only to batches much larger than the cluster. Workers still busy with a timed-out evaluation do
+        not count as free.
+        """
+        if not waiting:
+            return
+        free = sum(self.client.nthreads().values()) - len(self._stuck) - len(pending)
+        for _ in range(min(free, len(waiting))):
+            task, losses = waiting.popleft()
+            key = f"millfoil-{task.key}-{losses}-{uuid.uuid4().hex[:8]}"
+            future = self.client.submit(_execute, fn, task.payload, key, self.config.timeout, key=key, pure=False)
+            pending[future] = _Attempt(task, key, losses, time.monotonic())
+            ac.add(future)
+
+    @staticmethod
+    def _wait_for_completion(ac) -> None:
+        """Block until a future completes or :data:`POLL_S` passes."""
+        condition = getattr(ac, "thread_condition", None)
+        if condition is None:
+            time.sleep(POLL_S)
+            return
+        with condition:
+            if not ac.has_ready():
+                condition.wait(POLL_S)
+
+    def _elapsed(self, attempt: _Attempt) -> tuple[float, str]:
+        """(seconds since the attempt started on a worker, or since submission; that worker or "")."""
+        start, worker = self._started.get(attempt.key, (attempt.submitted, ""))
+        return time.monotonic() - start, worker
+
+    def _settle(self, future, attempt: _Attempt, waiting: deque) -> TaskResult | None:
+        """The result of a completed future, or None if the task was resubmitted after a worker loss."""
+        seconds, worker = self._elapsed(attempt)
+        self._started.pop(attempt.key, None)
+        task = attempt.task
+        lost = self._loss(future)
+        if lost is not None:
+            reason, lost_worker, counts = lost
+            losses = attempt.losses + counts
+            if losses <= self.config.retries:
+                log.warning("task %s lost with worker %s (%s); resubmitting", task.key, lost_worker, reason)
+                waiting.appendleft((task, losses))
+                return None
+            return TaskResult(task.key, task.generation, None, "worker_lost",
+                              f"lost with its worker {losses} times; last: {reason}", lost_worker or worker,
+                              seconds, attempt.losses + 1)
+        if future.status == "error":
+            return TaskResult(task.key, task.generation, None, "error", _describe(future.exception()), worker,
+                              seconds, attempt.losses + 1)
+        out = future.result()
+        status, reason = ("error", out["error"]) if out["error"] else ("done", "")
+        return TaskResult(task.key, task.generation, out["record"], status, reason, out["worker"], seconds,
+                          attempt.losses + 1)
+
+    def _loss(self, future) -> tuple[str, str, int] | None:
+        """(reason, worker, 1 or 0 retries it costs) if the future ended by losing its worker, else None.
+
+        A loss on a worker this runner restarted itself (to free it from a timed-out evaluation) costs no
+        retry: the task only queued behind the stuck one.
+        """
+        from distributed import KilledWorker
+
+        if future.status == "cancelled":
+            return "future cancelled by the scheduler (worker or connection lost)", "", 1
+        if future.status != "error":
+            return None
+        exc = future.exception()
+        if not isinstance(exc, KilledWorker):
+            return None
+        worker = getattr(getattr(exc, "last_worker", None), "address", "") or ""
+        return f"worker {worker} died while running it", worker, 0 if worker in self._restarted else 1
+
+    def _expire(self, pending: dict) -> Iterator[TaskResult]:
+        """Cancel and yield every attempt that has run on a worker for longer than the timeout."""
+        for future, attempt in list(pending.items()):
+            if attempt.key not in self._started:
+                continue  # still queued: the clock starts when a worker starts it
+            seconds, worker = self._elapsed(attempt)
+            if seconds <= self.config.timeout:
+                continue
+            del pending[future]
+            future.cancel()
+            self._started.pop(attempt.key, None)
+            self._stuck[attempt.key] = (worker, time.monotonic() + self.config.timeout_grace)
+            task = attempt.task
+            yield TaskResult(task.key, task.generation, None, "timeout",
+                             f"ran longer than the timeout of {self.config.timeout:g} s", worker, seconds,
+                             attempt.losses + 1)
+
+    def _restart_stuck_workers(self) -> None:
+        """Restart each worker still running a timed-out evaluation ``timeout_grace`` s after its cancel."""
+        now = time.monotonic()
+        for key, (worker, check_at) in list(self._stuck.items()):
+            if now < check_at:
+                continue
+            del self._stuck[key]
+            try:
+                busy = self.client.run(_is_executing, key, workers=[worker], on_error="return").get(worker)
+            except Exception:  # the worker left already: nothing to free
+                continue
+            if busy is True:
+                log.warning("worker %s still runs timed-out task %s; restarting it", worker, key)
+                self._restarted.add(worker)
+                self.client.restart_workers([worker], raise_for_error=False)
+
+
+class LocalRunner(DaskRunner):
+    """A ``LocalCluster``: one single-threaded worker process per core, BLAS/OpenMP pinned, no dashboard."""
+
+    def _make_cluster(self):
+        from distributed import LocalCluster
+
+        n = self.config.workers or len(os.sched_getaffinity(0))
+        return LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None,
+                            silence_logs=logging.CRITICAL, env=dict(PINNED_THREADS_ENV))
+
+
+class SchedulerRunner(DaskRunner):
+    """An existing scheduler at ``execution.address`` (its workers are started by whoever runs it)."""
+
+    def _make_cluster(self):
+        return None
+
+    def _address(self) -> str | None:
+        return self.config.address
+
+
+class JobQueueRunner(DaskRunner):
+    """A ``dask-jobqueue`` cluster of ``execution.workers`` jobs, replaced as they end (wall time, scancel)."""
+
+    #: Name of the cluster class in ``dask_jobqueue``.
+    CLUSTER_CLASS: ClassVar[str]
+
+    def _make_cluster(self):
+        import dask_jobqueue
+
+        options = self.config.cluster
+        lifetime, stagger = options.lifetimes_s()
+        cluster_class = getattr(dask_jobqueue, self.CLUSTER_CLASS)
+        cluster = cluster_class(
+            queue=options.queue, account=options.account, walltime=options.walltime, cores=options.cores,
+            processes=options.worker_processes, memory=options.memory,
+            job_extra_directives=list(options.job_extra_directives),
+            job_script_prologue=[f"export {k}={v}" for k, v in PINNED_THREADS_ENV.items()]
+            + list(options.job_script_prologue),
+            worker_extra_args=["--lifetime", f"{math.floor(lifetime)}s",
+                               "--lifetime-stagger", f"{math.floor(stagger)}s"],
+            local_directory=options.local_directory, log_directory=options.log_directory,
+            interface=options.interface, python=options.python, silence_logs="critical",
+            scheduler_options={"dashboard_address": None},
+        )
+        jobs = self.config.workers or 1
+        # adapt, not scale: a job that ends (lifetime, wall time, scancel) is replaced by a new one
+        cluster.adapt(minimum_jobs=jobs, maximum_jobs=jobs)
+        return cluster
+
+
+class SlurmRunner(JobQueueRunner):
+    CLUSTER_CLASS = "SLURMCluster"
+
+
+class PbsRunner(JobQueueRunner):
+    CLUSTER_CLASS = "PBSCluster"
+
+
+#: Runners by ``execution.backend``.
+RUNNERS: dict[str, type[Runner]] = {
+    "inline": InlineRunner,
+    "local": LocalRunner,
+    "scheduler": SchedulerRunner,
+    "slurm": SlurmRunner,
+    "pbs": PbsRunner,
+}
+
+
+def make_runner(config: ExecutionConfig | Mapping | None = None) -> Runner:
+    """The runner of ``config.backend`` (an :class:`ExecutionConfig` or its mapping; None: defaults)."""
+    if not isinstance(config, ExecutionConfig):
+        config = ExecutionConfig.model_validate(config or {})
+    return RUNNERS[config.backend](config)
