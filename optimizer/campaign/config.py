@@ -1,0 +1,293 @@
+"""Campaign configuration: today's configuration file plus the sections of an optimisation campaign.
+
+A campaign file is a configuration file (``blade:``, ``mesh:``, ``flow:``, ``solver:``, see
+:mod:`optimizer.config`) with these further sections, every one optional:
+
+``objectives:``
+    a list of ``{figure, sense, abs, reference}``; ``figure`` is any figure :func:`optimizer.evaluate`
+    reports (:data:`FIGURES`), ``sense`` ``min`` or ``max``, ``abs`` takes the magnitude first,
+    ``reference`` the hypervolume reference value in the figure's unit (default: from the first
+    generation). Default: maximise |F_Y| and minimise C_max (the paper's pair).
+``constraints:``
+    a list of ``{figure, upper, lower, abs}``: the design is feasible only if ``lower <= figure <= upper``.
+``convergence:``
+    what a solve that did not converge is worth (the objective policy, ``docs/campaigns.md``):
+    ``oscillating`` = ``accept_below_amplitude`` (default; values are the window means, accepted while the
+    amplitude of every objective's monitor is at most ``max_amplitude`` = 0.01 of its mean), ``accept_mean``
+    or ``fail``. A ``not_converged`` solve (drifting monitors) always fails. The class is judged on the
+    monitors of the chosen objectives and constraints where they have one.
+``algorithm:``
+    NSGA-II: ``population``, ``generations`` (including the initial one), ``offspring`` (default: the
+    population), ``seed``, ``crossover: {eta, prob}`` (pymoo SBX), ``mutation: {eta, prob}`` (pymoo PM;
+    ``prob`` null: 1 / number of design variables), ``initial_draws`` (rejection-sampling budget per member
+    of the feasible initial population).
+``execution:``
+    where evaluations run (:class:`optimizer.campaign.runner.ExecutionConfig`).
+``output:``
+    ``directory``: the run directory (store, resolved config), relative to the working directory.
+``analytic:``
+    an analytic test problem instead of the blade (``problem: zdt1``, ``variables``, ``delay`` seconds per
+    evaluation): the whole loop, store, runner and CLI without CFD (tests, cluster checks).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any, Literal
+
+import yaml
+from pydantic import Field, ValidationError, field_validator, model_validator
+
+from optimizer.campaign.runner import ExecutionConfig
+from optimizer.config import Config, ConfigError, _Frozen, apply_overrides
+
+#: Figures of :class:`optimizer.evaluate.Evaluation` that can be objectives or constraints, with units.
+FIGURES: dict[str, str] = {
+    "fx": "N/m", "fy": "N/m", "fx_span": "N", "fy_span": "N", "c_l": "-", "c_max": "m/s", "cp_min": "-",
+    "cp_wall_min": "-", "yplus_max": "-", "yplus_mean": "-",
+}
+#: The solver monitor behind each figure (its convergence class and window mean decide the value).
+MONITOR_OF: dict[str, str] = {
+    "fx": "fx:blade", "fx_span": "fx:blade", "fy": "fy:blade", "fy_span": "fy:blade", "c_l": "fy:blade",
+    "c_max": "c_max", "cp_min": "c_max",
+}
+#: Analytic test problems and their objective names.
+ANALYTIC: dict[str, tuple[str, ...]] = {"zdt1": ("f1", "f2")}
+
+DEFAULT_OBJECTIVES = ({"figure": "fy", "sense": "max", "abs": True}, {"figure": "c_max", "sense": "min"})
+
+
+class Objective(_Frozen):
+    """One objective: ``figure`` (see :data:`FIGURES`), ``sense``, ``abs`` (magnitude first) and the
+    hypervolume ``reference`` value in the figure's unit (null: from the first generation)."""
+
+    figure: str
+    sense: Literal["min", "max"] = "min"
+    abs: bool = False
+    reference: float | None = None
+
+    @property
+    def label(self) -> str:
+        """``|fy|`` or ``c_max``: the name of the value as the user states it."""
+        return f"|{self.figure}|" if self.abs else self.figure
+
+
+class FigureConstraint(_Frozen):
+    """``lower <= figure <= upper`` (either bound may be left out; ``abs``: on the magnitude)."""
+
+    figure: str
+    upper: float | None = None
+    lower: float | None = None
+    abs: bool = False
+
+    @model_validator(mode="after")
+    def _one_bound(self) -> FigureConstraint:
+        if self.upper is None and self.lower is None:
+            raise ValueError("a constraint needs 'upper' or 'lower' (or both)")
+        if self.upper is not None and self.lower is not None and self.lower > self.upper:
+            raise ValueError(f"lower {self.lower} > upper {self.upper}")
+        return self
+
+    @property
+    def names(self) -> list[str]:
+        """Constraint names, one per bound: ``c_max<=25``, ``c_l>=0.5``."""
+        label = f"|{self.figure}|" if self.abs else self.figure
+        out = []
+        if self.upper is not None:
+            out.append(f"{label}<={self.upper:g}")
+        if self.lower is not None:
+            out.append(f"{label}>={self.lower:g}")
+        return out
+
+
+class ConvergencePolicy(_Frozen):
+    """``convergence:`` — what an unsettled solve is worth (see the module docstring)."""
+
+    oscillating: Literal["accept_below_amplitude", "accept_mean", "fail"] = "accept_below_amplitude"
+    max_amplitude: float = Field(0.01, gt=0)
+
+
+class Crossover(_Frozen):
+    """pymoo SBX: distribution index ``eta`` and probability ``prob`` of crossing a pair."""
+
+    eta: float = Field(15.0, gt=0)
+    prob: float = Field(0.9, ge=0, le=1)
+
+
+class Mutation(_Frozen):
+    """pymoo PM: distribution index ``eta``; ``prob`` per variable (null: 1 / number of variables)."""
+
+    eta: float = Field(20.0, gt=0)
+    prob: float | None = Field(None, ge=0, le=1)
+
+
+class AlgorithmConfig(_Frozen):
+    """``algorithm:`` — NSGA-II settings (the paper: population 100, 50 generations)."""
+
+    population: int = Field(100, ge=2)
+    generations: int = Field(50, ge=1)
+    offspring: int | None = Field(None, ge=1)
+    seed: int = Field(1, ge=0)
+    crossover: Crossover = Crossover()
+    mutation: Mutation = Mutation()
+    initial_draws: int = Field(1000, ge=1)
+
+
+class OutputConfig(_Frozen):
+    """``output:`` — ``directory``: the run directory (relative paths: to the working directory)."""
+
+    directory: Path = Path("runs/campaign")
+
+
+class AnalyticConfig(_Frozen):
+    """``analytic:`` — an analytic problem in place of the blade (loop tests without CFD).
+
+    problem: ``zdt1`` (Zitzler, Deb & Thiele 2000; front f2 = 1 - sqrt(f1), f1 in [0, 1]).
+    variables: number of design variables in [0, 1]. delay: seconds each evaluation sleeps (to test
+    parallel execution, timeouts and interruption).
+    """
+
+    problem: Literal["zdt1"] = "zdt1"
+    variables: int = Field(6, ge=2, le=100)
+    delay: float = Field(0.0, ge=0)
+
+
+class CampaignConfig(Config):
+    """A whole campaign file (see the module docstring)."""
+
+    objectives: tuple[Objective, ...] = ()
+    constraints: tuple[FigureConstraint, ...] = ()
+    convergence: ConvergencePolicy = ConvergencePolicy()
+    algorithm: AlgorithmConfig = AlgorithmConfig()
+    execution: ExecutionConfig = ExecutionConfig()
+    output: OutputConfig = OutputConfig()
+    analytic: AnalyticConfig | None = None
+
+    @model_validator(mode="before")
+    @classmethod
+    def _default_objectives(cls, data: Any) -> Any:
+        if isinstance(data, dict) and not data.get("objectives"):
+            analytic = data.get("analytic")
+            if isinstance(analytic, dict | AnalyticConfig):
+                name = analytic.get("problem", "zdt1") if isinstance(analytic, dict) else analytic.problem
+                data = {**data, "objectives": [{"figure": f} for f in ANALYTIC.get(name, ())]}
+            else:
+                data = {**data, "objectives": list(DEFAULT_OBJECTIVES)}
+        return data
+
+    @field_validator("objectives")
+    @classmethod
+    def _distinct(cls, v: tuple[Objective, ...]) -> tuple[Objective, ...]:
+        labels = [o.label for o in v]
+        if len(set(labels)) != len(labels):
+            raise ValueError(f"an objective is given twice: {', '.join(labels)}")
+        return v
+
+    @property
+    def figures(self) -> dict[str, str]:
+        """The figures allowed in ``objectives`` and ``constraints`` for this campaign."""
+        if self.analytic is not None:
+            return {f: "-" for f in ANALYTIC[self.analytic.problem]}
+        return FIGURES
+
+    def to_yaml(self) -> str:
+        """The resolved campaign (every value, defaults included); reading it back gives the same one."""
+        if self.analytic is None:
+            return super().to_yaml()
+        return yaml.safe_dump(self.model_dump(mode="json"), sort_keys=False)
+
+
+def load_campaign(path: str | Path | None, overrides: Sequence[str] = ()) -> CampaignConfig:
+    """Read a campaign file, apply ``KEY=VALUE`` overrides, validate; errors name key, file and line."""
+    from optimizer.yamlsource import Source, YamlSourceError, read_yaml
+
+    raw: Any = {}
+    source = Source("<defaults>")
+    if path is not None:
+        try:
+            raw, source = read_yaml(path)
+        except YamlSourceError as exc:
+            raise ConfigError(str(exc)) from None
+        raw = raw or {}
+        if not isinstance(raw, dict):
+            raise ConfigError(f"{source.where()}: a campaign file must be a YAML mapping of sections "
+                              f"({', '.join(CampaignConfig.model_fields)})")
+    blade = raw.setdefault("blade", {})
+    if isinstance(blade, dict) and "parameters" not in blade:
+        blade["parameters"] = {}      # a campaign varies the parameters: no single blade is needed
+    raw = apply_overrides(raw, overrides)
+    try:
+        config = CampaignConfig.model_validate(raw)
+    except ValidationError as exc:
+        raise ConfigError(explain(exc, source, CampaignConfig)) from None
+    return check_campaign(config, source)
+
+
+def check_campaign(config: CampaignConfig, source: Any) -> CampaignConfig:
+    """Checks across sections (figure names, the blade space, the mesh), errors located in ``source``."""
+    allowed = config.figures
+    for section, items in (("objectives", config.objectives), ("constraints", config.constraints)):
+        for i, item in enumerate(items):
+            if item.figure not in allowed:
+                raise ConfigError(f"{source.where((section, i, 'figure'))}: '{section}.{i}.figure' = "
+                                  f"{item.figure!r} is not allowed; allowed: {', '.join(allowed)}")
+    if config.analytic is None:
+        for where, check in ((("blade", "bounds"), config.blade.space), (("mesh",), config.mesh_spec)):
+            try:
+                check()
+            except ConfigError as exc:
+                raise ConfigError(f"{source.where(_located(exc, where))}: {exc}") from None
+    return config
+
+
+def _located(exc: ConfigError, default: tuple) -> tuple:
+    """The path of the key a check's message names first (``parameter 'alpha'``), else ``default``."""
+    import re
+
+    m = re.search(r"parameter(?:\(s\))? '?([A-Za-z_0-9]+)", str(exc))
+    if m and default[:2] == ("blade", "bounds"):
+        return ("blade", "bounds", m.group(1))
+    return default
+
+
+def explain(exc: ValidationError, source: Any, schema: type) -> str:
+    """One line per problem: ``FILE:LINE: the key, what is wrong, what is allowed``."""
+    lines = []
+    for err in exc.errors():
+        loc = tuple(p for p in err["loc"] if not (isinstance(p, str) and p[:1].isupper()))   # drop union tags
+        where = ".".join(str(p) for p in loc)
+        at = source.where(loc)
+        if err["type"] == "extra_forbidden":
+            allowed = _allowed_keys(schema, loc[:-1])
+            lines.append(f"{at}: unknown key '{where}'; allowed: {', '.join(allowed)}")
+        elif err["type"] in ("enum", "literal_error"):
+            lines.append(f"{at}: '{where}' = {err['input']!r} is not allowed; allowed: {err['ctx']['expected']}")
+        elif err["type"] == "missing":
+            lines.append(f"{at}: '{where}' is required")
+        else:
+            msg = err["msg"].removeprefix("Value error, ")
+            lines.append(f"{at}: '{where}': {msg} (got {err['input']!r})")
+    return "; ".join(lines)
+
+
+def _allowed_keys(schema: type, loc: Sequence[Any]) -> list[str]:
+    """The keys allowed at ``loc`` in ``schema`` (following sections, lists and optional sections)."""
+    from typing import get_args
+
+    from pydantic import BaseModel
+
+    model = schema
+    for part in loc:
+        if isinstance(part, int):
+            continue
+        field = model.model_fields.get(str(part))
+        if field is None:
+            break
+        candidates = [field.annotation, *get_args(field.annotation)]
+        candidates += [a for c in list(candidates) for a in get_args(c)]
+        nested = [c for c in candidates if isinstance(c, type) and issubclass(c, BaseModel)]
+        if not nested:
+            break
+        model = nested[0]
+    return list(model.model_fields)

@@ -1,0 +1,439 @@
+"""The campaign loop: NSGA-II generation by generation (pymoo ask/tell), evaluations through a runner,
+every result stored the moment it arrives, resumable from the store alone.
+
+One generation::
+
+    offspring = algorithm.ask()                       # SBX + PM from the population (seeded)
+    for each design: key = content hash               # parameters, mesh, flow, solver, version
+        stored already?          -> its stored values (never evaluated twice)
+        geometrically infeasible -> stored as "infeasible" with the violated constraints, never meshed
+        otherwise                -> a runner task
+    for each result as completed: judge it (convergence policy), store it
+    algorithm.tell(offspring with F, G)               # rank-and-crowding survival
+    store the generation: members (keys, rank, crowding), offspring, feasible share, hypervolume,
+                          the optimiser's random state
+
+**Resume.** The algorithm is rebuilt, not unpickled: a fresh NSGA-II on the same problem, its population
+set from the last stored generation (designs, objective and constraint values from the evaluations
+table, rank and crowding distance as stored) and its random generator set to the stored state. The next
+``ask()`` then draws exactly the offspring an uninterrupted run would draw; those already stored (the
+part of the interrupted generation that finished) come from the store. Given the store, the loop is
+deterministic: results are used in ask order whatever order they arrive in, so the final population
+equals that of an uninterrupted run with the same seed.
+"""
+
+from __future__ import annotations
+
+import math
+import signal
+import time
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from optimizer.campaign.config import CampaignConfig
+from optimizer.campaign.problem import Assessment, CampaignProblem, Feasibility, initial_population, make_problem
+from optimizer.campaign.store import STORE_NAME, EvaluationRow, GenerationRow, Store, now
+
+#: pymoo never stops the loop itself: the driver counts generations.
+_NO_TERMINATION = ("n_gen", 10**9)
+
+
+class CampaignError(RuntimeError):
+    """A campaign that cannot start or continue (existing run directory, no store to resume...)."""
+
+
+@dataclass
+class GenerationProgress:
+    """What the progress display shows while generation ``generation`` runs (counts of its offspring).
+
+    total: offspring asked. cached: found in the store. infeasible: rejected by geometry. submitted:
+    handed to the runner. done: finished with usable values. failed: finished without (any status but
+    ``ok`` and ``infeasible``). workers: the runner's workers. best: ``{objective label: best value}``
+    over the run so far. hypervolume: of the population's feasible front after the previous generation.
+    eta_s: estimated seconds to the end of the campaign (None while unknown).
+    """
+
+    generation: int
+    generations: int
+    total: int = 0
+    cached: int = 0
+    infeasible: int = 0
+    submitted: int = 0
+    done: int = 0
+    failed: int = 0
+    workers: int = 0
+    best: dict = field(default_factory=dict)
+    hypervolume: float | None = None
+    feasible_share: float | None = None
+    eta_s: float | None = None
+    finished: bool = False
+
+    @property
+    def running(self) -> int:
+        """Tasks started and not finished (at most one per worker)."""
+        pending = self.submitted - self.done - self.failed
+        return min(pending, self.workers) if self.workers else pending
+
+
+@dataclass(frozen=True)
+class Outcome:
+    """The end of :func:`run_campaign` / :func:`resume_campaign`: the run directory, the state
+    (``finished``), generations done, and the non-dominated feasible designs of the whole run."""
+
+    directory: Path
+    state: str
+    generations: int
+    front: list[EvaluationRow]
+    labels: tuple[str, ...]
+
+
+Progress = Callable[[GenerationProgress], None]
+
+
+# -------------------------------------------------------------------------------------------- entry
+def run_campaign(config: CampaignConfig, directory: str | Path | None = None, *, runner=None,
+                 fn: Callable[[dict], dict] | None = None, progress: Progress | None = None) -> Outcome:
+    """Start a new campaign in ``directory`` (default ``config.output.directory``)."""
+    directory = Path(directory if directory is not None else config.output.directory)
+    path = directory / STORE_NAME
+    if path.exists():
+        with Store(path, readonly=True) as existing:
+            if existing.campaign() is not None:
+                raise CampaignError(f"{directory} already holds a campaign: continue it with `millfoil resume "
+                                    f"{directory}` or choose another output directory")
+    directory.mkdir(parents=True, exist_ok=True)
+    (directory / "config.yaml").write_text(config.to_yaml())
+    problem = make_problem(config)
+    with Store(path) as store:
+        store.start_campaign(config.to_yaml(), config.algorithm.seed, problem.version)
+        return _run(config, problem, store, directory, runner, fn, progress)
+
+
+def resume_campaign(directory: str | Path, *, runner=None, fn: Callable[[dict], dict] | None = None,
+                    progress: Progress | None = None, execution: dict | None = None) -> Outcome:
+    """Continue the campaign stored in ``directory`` with its saved configuration (``execution``: changes
+    to the ``execution:`` section, e.g. another backend for the rest of the run)."""
+    directory = Path(directory)
+    path = directory / STORE_NAME
+    if not path.exists():
+        raise CampaignError(f"no campaign store in {directory} (expected {path})")
+    with Store(path) as store:
+        row = store.campaign()
+        if row is None:
+            raise CampaignError(f"{path} holds no campaign (it never started)")
+        config = saved_config(row.config, execution)
+        problem = make_problem(config)
+        problem.version = row.version       # the keys of the stored evaluations stay valid
+        store.start_campaign(row.config, row.seed, row.version)
+        return _run(config, problem, store, directory, runner, fn, progress)
+
+
+def saved_config(text: str, execution: dict | None = None) -> CampaignConfig:
+    """The campaign configuration saved in a store (its resolved YAML)."""
+    import yaml
+
+    data = yaml.safe_load(text)
+    if execution:
+        data["execution"] = {**data.get("execution", {}), **execution}
+    return CampaignConfig.model_validate(data)
+
+
+# --------------------------------------------------------------------------------------------- loop
+def _run(config, problem, store, directory, runner, fn, progress) -> Outcome:
+    if runner is None:
+        from optimizer.campaign.runner import make_runner
+
+        runner = make_runner(config.execution)
+    if fn is None:
+        from optimizer.campaign.record import evaluate_payload
+
+        fn = evaluate_payload
+    loop = _Loop(config, problem, store, runner, fn, progress or (lambda _p: None))
+    try:
+        with _terminate_as_interrupt(), runner:
+            loop.run()
+    except KeyboardInterrupt:
+        store.end_campaign("interrupted", "interrupted (signal); continue with `millfoil resume`")
+        raise
+    except BaseException as exc:
+        store.end_campaign("failed", f"{type(exc).__name__}: {exc}")
+        raise
+    store.end_campaign("finished")
+    return Outcome(directory, "finished", len(store.generations()), pareto_front(store, problem),
+                   problem.objective_labels)
+
+
+@contextmanager
+def _terminate_as_interrupt() -> Iterator[None]:
+    """SIGTERM (a batch system's wall time, ``kill``) ends the loop like Ctrl-C: the store is marked
+    ``interrupted`` and the run can be resumed."""
+    def handler(signum, frame):
+        raise KeyboardInterrupt(f"signal {signum}")
+
+    try:
+        previous = signal.signal(signal.SIGTERM, handler)
+    except ValueError:       # not the main thread: leave signals alone
+        yield
+        return
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+
+
+class _Loop:
+    """The generation loop of one driver session (see the module docstring)."""
+
+    def __init__(self, config: CampaignConfig, problem: CampaignProblem, store: Store, runner, fn, progress):
+        self.config, self.problem, self.store, self.runner, self.fn = config, problem, store, runner, fn
+        self.progress = progress
+        self.pymoo = problem.pymoo_problem()
+        self.algorithm_config = config.algorithm
+        self.generation_seconds: list[float] = []
+        self.evaluation_seconds: list[float] = []
+        self.best: dict[str, float] = {}
+        for row in store.evaluations():
+            self._note(row)
+
+    # ------------------------------------------------------------------------------------- pymoo
+    def _algorithm(self, sampling):
+        from pymoo.algorithms.moo.nsga2 import NSGA2
+        from pymoo.operators.crossover.sbx import SBX
+        from pymoo.operators.mutation.pm import PM
+
+        a = self.algorithm_config
+        algorithm = NSGA2(pop_size=a.population, n_offsprings=a.offspring or a.population, sampling=sampling,
+                          crossover=SBX(eta=a.crossover.eta, prob=a.crossover.prob),
+                          mutation=PM(eta=a.mutation.eta, prob_var=a.mutation.prob), eliminate_duplicates=True)
+        algorithm.setup(self.pymoo, seed=a.seed, termination=_NO_TERMINATION, verbose=False)
+        return algorithm
+
+    def _start(self):
+        """A fresh algorithm (feasible initial population) or one rebuilt from the last stored generation."""
+        last = self.store.last_generation()
+        if last is None:
+            X0, _draws = initial_population(self.problem, self.algorithm_config.population,
+                                            self.algorithm_config.seed, self.algorithm_config.initial_draws)
+            return self._algorithm(X0), 0
+        algorithm = self._algorithm(np.zeros((1, self.problem.n_var)))
+        rows = self.store.get_many(last.members)
+        pop = self._population([rows[k] for k in last.members])
+        pop.set("rank", np.asarray(last.rank), "crowding", np.asarray(last.crowding, float))
+        algorithm.pop = pop
+        algorithm.is_initialized = True
+        algorithm.n_iter = last.generation + 2     # pymoo counts the initial generation as 1, then advances
+        algorithm.random_state.bit_generator.state = last.rng_state
+        return algorithm, last.generation + 1
+
+    def _population(self, rows: Sequence[EvaluationRow]):
+        from pymoo.core.population import Population
+
+        pop = Population.new("X", np.array([r.x for r in rows], float))
+        self._set_values(pop, rows)
+        return pop
+
+    def _set_values(self, pop, rows: Sequence[EvaluationRow]) -> None:
+        from pymoo.core.evaluator import Evaluator
+        from pymoo.problems.static import StaticProblem
+
+        F = np.array([r.minimised for r in rows], float)
+        G = np.array([[r.constraints[n] for n in self.problem.constraint_names] for r in rows], float)
+        Evaluator(skip_already_evaluated=False).eval(StaticProblem(self.pymoo, F=F, G=G), pop)
+
+    # -------------------------------------------------------------------------------------- loop
+    def run(self) -> None:
+        algorithm, start = self._start()
+        for g in range(start, self.algorithm_config.generations):
+            t0 = time.perf_counter()
+            offspring = algorithm.ask()
+            if offspring is None or len(offspring) == 0:    # duplicates left no new design: nothing to do
+                break
+            rows, counts = self._evaluate(offspring.get("X"), g)
+            self._set_values(offspring, rows)
+            algorithm.tell(infills=offspring)
+            self._store_generation(algorithm, g, rows, counts)
+            self.generation_seconds.append(time.perf_counter() - t0)
+
+    def _evaluate(self, X: np.ndarray, g: int) -> tuple[list[EvaluationRow], dict]:
+        """One row per design of ``X`` (in order): stored, infeasible, or evaluated now."""
+        keys = [self.problem.key(x) for x in X]
+        known = self.store.get_many(keys)
+        state = GenerationProgress(g, self.algorithm_config.generations, total=len(X),
+                                   cached=sum(1 for k in keys if k in known and known[k].generation < g),
+                                   workers=getattr(self.runner, "workers", 0) or 0, **self._summary())
+        feasibility: dict[str, Feasibility] = {}
+        tasks, submitted = [], {}
+        for k, x in zip(keys, X, strict=True):
+            if k in known or k in feasibility:
+                continue
+            feasibility[k] = f = self.problem.check(x)
+            if not f.feasible:
+                known[k] = self._row(k, g, x, self.problem.infeasible(f))
+                self.store.add(known[k])
+                self._note(known[k])
+                state.infeasible += 1
+                continue
+            tasks.append(_task(k, self.problem.payload(x), g))
+            submitted[k] = (x, now())
+        state.feasible_share = _feasible_share(keys, known, submitted)
+        state.submitted = len(tasks)
+        state.eta_s = self._eta(g, len(tasks), state.workers)
+        self.progress(state)
+        if tasks:
+            for result in self.runner.run(self.fn, tasks):
+                x, at = submitted[result.key]
+                assessment = self._assess(result, feasibility[result.key])
+                row = self._row(result.key, g, x, assessment, result=result, submitted=at)
+                self.store.add(row)
+                self._note(row)
+                known[result.key] = row
+                self.evaluation_seconds.append(result.seconds)
+                if row.ok:
+                    state.done += 1
+                else:
+                    state.failed += 1
+                state.best = dict(self.best)
+                state.eta_s = self._eta(g, len(tasks) - state.done - state.failed, state.workers)
+                self.progress(state)
+        rows = [known[k] for k in keys]
+        counts = {"cached": state.cached, "feasible": sum(1 for k in keys if known[k].status != "infeasible")}
+        return rows, counts
+
+    def _assess(self, result, feasibility: Feasibility) -> Assessment:
+        if result.status != "done" or result.record is None:
+            return self.problem.failed(result.status, result.reason or result.status, feasibility)
+        try:
+            return self.problem.assess(result.record, feasibility)
+        except Exception as exc:    # a malformed record is a bug in the worker: recorded, not fatal
+            return self.problem.failed("error", f"cannot judge the record: {type(exc).__name__}: {exc}",
+                                       feasibility)
+
+    def _row(self, key: str, g: int, x: np.ndarray, a: Assessment, *, result=None, submitted=None) -> EvaluationRow:
+        record = (result.record if result is not None else None) or {}
+        parameters = (self.problem.blade_parameters(x) if hasattr(self.problem, "blade_parameters")
+                      else self.problem.parameters(x))
+        return EvaluationRow(
+            key=key, generation=g, x=[float(v) for v in x], parameters=parameters, status=a.status,
+            reason=a.reason, minimised=a.minimised, constraints=a.constraints, convergence=a.convergence,
+            objectives=a.objectives, figures=record.get("figures"), monitors=record.get("monitors"),
+            cells=record.get("cells"), iterations=record.get("iterations"), seconds=record.get("seconds"),
+            wall_seconds=None if result is None else result.seconds,
+            worker=None if result is None else result.worker, submitted=submitted)
+
+    # ------------------------------------------------------------------------------- generation
+    def _store_generation(self, algorithm, g: int, rows: list[EvaluationRow], counts: dict) -> None:
+        pop = algorithm.pop
+        X = pop.get("X")
+        members = [self.problem.key(x) for x in X]
+        hv = self._hypervolume(pop)
+        self.store.add_generation(GenerationRow(
+            generation=g, members=members, rank=[int(r) for r in pop.get("rank")],
+            crowding=[float(c) for c in pop.get("crowding")], offspring=[r.key for r in rows],
+            feasible_offspring=counts["feasible"], feasible_share=counts["feasible"] / len(rows) if rows else None,
+            cache_hits=counts["cached"], hypervolume=hv, rng_state=algorithm.random_state.bit_generator.state))
+        state = GenerationProgress(g, self.algorithm_config.generations, total=len(rows), cached=counts["cached"],
+                                   infeasible=len(rows) - counts["feasible"], finished=True,
+                                   workers=getattr(self.runner, "workers", 0) or 0, **self._summary(),
+                                   feasible_share=counts["feasible"] / len(rows) if rows else None)
+        state.hypervolume = hv
+        by_status = self.store.count_by_status(g)
+        state.done = by_status.get("ok", 0)
+        state.failed = sum(n for s, n in by_status.items() if s not in ("ok", "infeasible"))
+        state.eta_s = self._eta(g + 1, 0, state.workers)
+        self.progress(state)
+
+    def _hypervolume(self, pop) -> float | None:
+        """Hypervolume of the population's feasible designs against the run's reference point."""
+        F, CV = pop.get("F"), pop.get("CV")[:, 0]
+        feasible = F[CV <= 0.0]
+        if len(feasible) == 0:
+            return None
+        reference = self._reference(feasible)
+        inside = feasible[np.all(feasible < reference, axis=1)]
+        if len(inside) == 0:
+            return 0.0
+        from pymoo.indicators.hv import HV
+
+        return float(HV(ref_point=reference)(inside))
+
+    def _reference(self, feasible: np.ndarray) -> np.ndarray:
+        """The run's hypervolume reference (minimised space): from the config where given, else the worst
+        value of the first feasible generation plus a tenth of its range; fixed once stored."""
+        stored = self.store.campaign().reference
+        if stored is not None:
+            return np.asarray(stored, float)
+        worst, best = feasible.max(axis=0), feasible.min(axis=0)
+        span = np.where(worst > best, worst - best, np.maximum(np.abs(worst), 1.0))
+        reference = worst + 0.1 * span
+        for i, o in enumerate(self.config.objectives):
+            if o.reference is not None:
+                reference[i] = -o.reference if o.sense == "max" else o.reference
+        self.store.set_reference(reference)
+        return reference
+
+    def _note(self, row: EvaluationRow) -> None:
+        """Keep the best value per objective over the run's feasible designs."""
+        if not row.feasible or row.objectives is None:
+            return
+        for o in self.config.objectives:
+            v, best = row.objectives[o.label], self.best.get(o.label)
+            if best is None or (v > best if o.sense == "max" else v < best):
+                self.best[o.label] = v
+
+    def _summary(self) -> dict:
+        """Best value per objective so far and the last generation's hypervolume."""
+        last = self.store.last_generation()
+        return {"best": dict(self.best), "hypervolume": None if last is None else last.hypervolume}
+
+    def _eta(self, g: int, remaining_tasks: int, workers: int) -> float | None:
+        """Seconds to the end: mean generation time of this session times the generations left, or (before
+        a generation has finished) the mean evaluation time over the tasks left."""
+        left = self.algorithm_config.generations - g
+        if self.generation_seconds:
+            return float(np.mean(self.generation_seconds)) * left
+        if not self.evaluation_seconds:
+            return None
+        per = float(np.mean(self.evaluation_seconds)) / max(workers, 1)
+        per_generation = per * (self.algorithm_config.offspring or self.algorithm_config.population)
+        return per * remaining_tasks + per_generation * max(left - 1, 0)
+
+
+def _task(key: str, payload: dict, generation: int):
+    from optimizer.campaign.runner import Task
+
+    return Task(key=key, payload=payload, generation=generation)
+
+
+def _feasible_share(keys, known, submitted) -> float | None:
+    if not keys:
+        return None
+    feasible = sum(1 for k in keys if k in submitted or (k in known and known[k].status != "infeasible"))
+    return feasible / len(keys)
+
+
+# ------------------------------------------------------------------------------------------ results
+def pareto_front(store: Store, problem: CampaignProblem) -> list[EvaluationRow]:
+    """The non-dominated designs among all the run's feasible evaluations, sorted by the first objective."""
+    rows = [r for r in store.evaluations() if r.feasible]
+    if not rows:
+        return []
+    from pymoo.util.nds.non_dominated_sorting import NonDominatedSorting
+
+    F = np.array([r.minimised for r in rows], float)
+    front = NonDominatedSorting().do(F, only_non_dominated_front=True)
+    chosen = sorted((rows[i] for i in front), key=lambda r: r.minimised[0])
+    return chosen
+
+
+def final_population(store: Store) -> list[str]:
+    """Keys of the last stored population (in order)."""
+    last = store.last_generation()
+    return [] if last is None else list(last.members)
+
+
+def _isfinite(v) -> bool:
+    return v is not None and math.isfinite(v)

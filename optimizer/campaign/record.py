@@ -1,0 +1,189 @@
+"""What a worker runs: one task payload in, one JSON-able evaluation record out (never raising for a bad
+blade).
+
+:func:`evaluate_payload` is the ``fn`` the campaign hands to the runner
+(:mod:`optimizer.campaign.runner`). The payload is built by :mod:`optimizer.campaign.problem`:
+
+* ``{"kind": "blade", "config": <resolved campaign YAML>, "parameters": {name: value}}`` — runs the
+  evaluation pipeline (:func:`optimizer.pipeline.evaluate`) on that blade;
+* ``{"kind": "zdt1", "x": [...], "delay": s}`` — the analytic test problem;
+
+plus the runner's ``deadline_s`` (Unix time after which the runner has given up: the solve stops at its
+next iteration and the record says ``timeout``).
+
+The record (the driver stores it and judges it with :meth:`CampaignProblem.assess`)::
+
+    status        "solved" (figures exist) or why not: "infeasible", "geometry_failed", "mesh_failed",
+                  "solve_failed", "diverged", "timeout", "error"
+    reason        one line
+    class         convergence class of the solve (solver.convergence), None without a solve
+    figures       {figure: value or None} as the pipeline reports them (FIGURES of campaign.config)
+    window_figures  the same figures recomputed from the window means of their monitors (used for an
+                  accepted oscillating solve whatever the whole solve's class)
+    monitors      {monitor: {"mean", "amplitude", "drift", "period", "status"}} over the solve's window
+    missing       {figure: reason} for figures without a value
+    cells, iterations, seconds ({stage: s})
+
+BLAS/OpenMP threads are pinned to one in the worker: evaluations are parallel across processes.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable
+from typing import Any
+
+#: Pipeline failure ``(status, stage)`` -> record status.
+_FAILED = {"geometry": "geometry_failed", "mesh": "mesh_failed", "solve": "solve_failed", "post": "error"}
+_pinned = False
+
+
+class _DeadlinePassed(Exception):
+    """Raised from the solver's progress callback to stop a solve the runner has given up on."""
+
+
+def evaluate_payload(payload: dict) -> dict:
+    """Run one task payload (see the module docstring) and return its record."""
+    _pin_threads()
+    kind = payload.get("kind")
+    handler = HANDLERS.get(kind)
+    if handler is None:
+        return {"status": "error", "reason": f"unknown payload kind {kind!r}; known: {', '.join(HANDLERS)}"}
+    return handler(payload)
+
+
+def _pin_threads() -> None:
+    global _pinned
+    if _pinned:
+        return
+    try:
+        from threadpoolctl import threadpool_limits
+
+        threadpool_limits(1)
+    except ImportError:            # the runner's worker environment pins them too (OMP_NUM_THREADS=1...)
+        pass
+    _pinned = True
+
+
+# ------------------------------------------------------------------------------------------- blade
+def blade_config(payload: dict):
+    """The :class:`optimizer.config.Config` of the blade of ``payload``: the resolved campaign's
+    ``blade``/``mesh``/``flow``/``solver`` sections with the design's parameters."""
+    import yaml
+
+    from optimizer.config import Config
+
+    data = yaml.safe_load(payload["config"])
+    data = {k: v for k, v in data.items() if k in Config.model_fields}
+    data["blade"] = {**data.get("blade", {}), "parameters": dict(payload["parameters"])}
+    return Config.model_validate(data)
+
+
+def _pipeline() -> Callable[..., Any]:
+    """The pipeline's ``evaluate`` (looked up at call time, so that tests can inject failures)."""
+    from optimizer.pipeline import evaluate
+
+    return evaluate
+
+
+def evaluate_blade_payload(payload: dict) -> dict:
+    t0 = time.perf_counter()
+    try:
+        config = blade_config(payload)
+    except Exception as exc:     # a payload the driver built from a validated config: a bug, say so
+        return {"status": "error", "reason": f"bad payload: {type(exc).__name__}: {exc}"}
+    deadline = payload.get("deadline_s")
+    passed = []
+
+    def watch(_line: str) -> None:
+        if deadline is not None and time.time() > deadline:
+            passed.append(True)
+            raise _DeadlinePassed(f"past the runner's deadline ({time.time() - deadline:.0f} s)")
+
+    ev = _pipeline()(config, log=watch if deadline is not None else None, every=1 if deadline is not None else 0)
+    record = record_of(ev, config)
+    if passed:
+        record.update(status="timeout", reason=f"stopped at the runner's deadline; {record['reason']}")
+    record["seconds"]["total"] = time.perf_counter() - t0
+    return record
+
+
+def record_of(ev, config) -> dict:
+    """The record of a pipeline :class:`~optimizer.evaluation.Evaluation` (see the module docstring)."""
+    from optimizer.campaign.config import FIGURES
+
+    solved = ev.status in ("converged", "stationary", "oscillating", "not_converged")
+    if solved:
+        status = "solved"
+    elif ev.status in ("infeasible", "diverged"):
+        status = ev.status
+    else:
+        status = _FAILED.get(ev.stage or "", "error")
+    cls = ev.classification
+    monitors = {}
+    if cls is not None:
+        for m in cls.mean:
+            monitors[m] = {"mean": _num(cls.mean.get(m)), "amplitude": _num(cls.amplitude.get(m)),
+                           "drift": _num(cls.drift.get(m)), "period": _num(cls.period.get(m)),
+                           "status": cls.monitor_status.get(m)}
+    figures = {f: _num(getattr(ev, f, None)) for f in FIGURES}
+    return {
+        "status": status, "reason": ev.message, "class": ev.status if solved else (cls.status if cls else None),
+        "figures": figures, "window_figures": window_figures(monitors, ev, config) if solved else None,
+        "monitors": monitors, "missing": dict(ev.missing or {}), "cells": ev.cells, "iterations": ev.iterations,
+        "seconds": {k: float(v) for k, v in (ev.seconds or {}).items()}, "values_from": ev.values_from,
+    }
+
+
+def window_figures(monitors: dict, ev, config) -> dict:
+    """Figures from the monitors' window means (forces per unit span, C_max), with the pipeline's
+    definitions: ``F·span``, ``C_L = F_Y / (½ rho C0² L)``, ``C_p,min = 1 - C_max² / C0²``."""
+    fx = (monitors.get("fx:blade") or {}).get("mean")
+    fy = (monitors.get("fy:blade") or {}).get("mean")
+    c_max = (monitors.get("c_max") or {}).get("mean")
+    span = ev.span
+    chord = float(config.blade.parameters.get("L", 0.1))
+    q = 0.5 * config.flow.density * config.flow.speed ** 2
+    out: dict[str, float | None] = {}
+    if fx is not None:
+        out["fx"] = fx
+        out["fx_span"] = fx * span if span else None
+    if fy is not None:
+        out["fy"] = fy
+        out["fy_span"] = fy * span if span else None
+        out["c_l"] = fy / (q * chord)
+    if c_max is not None:
+        out["c_max"] = c_max
+        out["cp_min"] = 1.0 - (c_max / config.flow.speed) ** 2
+    return out
+
+
+def _num(v: Any) -> float | None:
+    if v is None:
+        return None
+    v = float(v)
+    return v if math.isfinite(v) else None
+
+
+# ------------------------------------------------------------------------------------------ analytic
+def zdt1(x: list[float]) -> tuple[float, float]:
+    """ZDT1 (Zitzler, Deb & Thiele 2000): ``f1 = x1``, ``g = 1 + 9 mean(x2..xn)``,
+    ``f2 = g (1 - sqrt(f1 / g))``; Pareto front ``f2 = 1 - sqrt(f1)`` at ``x2..xn = 0``."""
+    f1 = float(x[0])
+    g = 1.0 + 9.0 * sum(x[1:]) / (len(x) - 1)
+    return f1, g * (1.0 - math.sqrt(f1 / g))
+
+
+def evaluate_zdt1_payload(payload: dict) -> dict:
+    t0 = time.perf_counter()
+    if payload.get("delay"):
+        time.sleep(float(payload["delay"]))
+    f1, f2 = zdt1(payload["x"])
+    return {"status": "solved", "reason": "analytic", "class": "converged", "figures": {"f1": f1, "f2": f2},
+            "window_figures": None, "monitors": {}, "missing": {}, "cells": None, "iterations": None,
+            "seconds": {"total": time.perf_counter() - t0}}
+
+
+#: Payload kinds and their handlers (STYLE.md §7: a registry keyed by a string).
+HANDLERS: dict[str, Callable[[dict], dict]] = {"blade": evaluate_blade_payload, "zdt1": evaluate_zdt1_payload}
