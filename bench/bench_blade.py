@@ -23,7 +23,7 @@ import time
 import numpy as np
 
 from optimizer.config import load_config
-from optimizer.evaluate import evaluate
+from optimizer.pipeline import evaluate
 
 #: The warm-start donor: the middle of the Table 6 G1 design ranges (the paper's initial solution).
 DONOR = ["alpha=10", "beta1=5", "beta1bar=25", "u_s2=0.18", "u_p2=0.18", "d_s1=0.0065", "d_p1=0.0065",
@@ -41,7 +41,7 @@ def run(config, label: str, warm_start=None):
     t0 = time.perf_counter()
     ev = evaluate(config, warm_start=warm_start)
     wall = time.perf_counter() - t0
-    flow = ev.artifacts.get("flow")
+    flow = ev.artifacts.flow
     if flow is None or not ev.ok:
         print(f"{label}: {ev.status} at {ev.stage}: {ev.message}")
         return ev
@@ -63,14 +63,14 @@ def main() -> None:
     ap.add_argument("--no-warm", action="store_true", help="skip the warm-start run")
     a = ap.parse_args()
     print(f"{platform.node()} {platform.machine()}, level {a.level}, {a.config}")
-    config = load_config(a.config, [f"mesh.level={a.level}"])
+    config = load_config(a.config, values={"mesh.level": a.level})
     run(config, "cold start")
     if not a.no_warm:
-        donor = evaluate(load_config(a.config, [f"mesh.level={a.level}", *DONOR]))
+        donor = evaluate(load_config(a.config, DONOR, values={"mesh.level": a.level}))
         print(f"donor (Table 6 mid-range G1 blade): {donor.status}, {donor.iterations} iterations, "
               f"solve {donor.seconds.get('solve', 0):.1f} s")
-        if donor.artifacts.get("flow") is not None and donor.ok:
-            run(config, "warm start", warm_start=donor.artifacts["flow"])
+        if donor.artifacts.flow is not None and donor.ok:
+            run(config, "warm start", warm_start=donor.artifacts.flow)
     print(f"peak memory {resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024:.0f} MB")
 
 

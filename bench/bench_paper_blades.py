@@ -29,7 +29,7 @@ from pathlib import Path
 import numpy as np
 
 from optimizer.config import load_config
-from optimizer.evaluate import evaluate
+from optimizer.pipeline import evaluate
 
 #: ``bench_g1`` is the attached benchmark blade (its own channel: use ``--domains 1:10:5``), the
 #: mesh-convergence check for a flow that settles.
@@ -45,8 +45,8 @@ def one(blade: str, level: str, domain: str, max_iter: int = 0, history: Path | 
     config = load_config(BLADES[blade], overrides)
     t0 = time.perf_counter()
     ev = evaluate(config)
-    if history is not None and "flow" in ev.artifacts:
-        write_history(ev.artifacts["flow"].monitors, history / f"{blade}_{level}_{domain.replace(':', '-')}.csv")
+    if history is not None and ev.artifacts.flow is not None:
+        write_history(ev.artifacts.flow.monitors, history / f"{blade}_{level}_{domain.replace(':', '-')}.csv")
     row = {"blade": blade, "level": level, "domain": domain, "seconds": time.perf_counter() - t0,
            **ev.summary()}
     cls = ev.classification

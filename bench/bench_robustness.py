@@ -2,7 +2,7 @@
 
 Draws seeded random parameter sets per (mode, continuity), keeps the geometrically feasible ones until
 ``--blades`` blades are collected (round robin over the ten families, both modes), evaluates each with
-``optimizer.evaluate.evaluate`` in the paper's flow (the embedded defaults: water, C0 = 10 m/s, 5 %
+``optimizer.pipeline.evaluate`` in the paper's flow (the embedded defaults: water, C0 = 10 m/s, 5 %
 inlet turbulence, k-ω SST) at ``--level``, and prints:
 
 * the share of each outcome (``converged``, ``stationary``, ``oscillating``, ``not_converged``,
@@ -51,10 +51,10 @@ def draw_blades(n: int, seed: int, max_draws: int = 200_000) -> list[tuple[str, 
     while len(out) < n and draws < max_draws:
         mode, cont = COMBINATIONS[k % len(COMBINATIONS)]
         space = spaces[(mode, cont)]
-        spec = space.spec(space.sample(1, rng)[0])
+        blade_spec = space.spec(space.sample(1, rng)[0])
         draws += 1
-        if evaluate_blade(spec).feasible:
-            out.append((mode, cont, {name: float(v) for name, v in spec.values.items()}))
+        if evaluate_blade(blade_spec).feasible:
+            out.append((mode, cont, {name: float(v) for name, v in blade_spec.values.items()}))
             k += 1
     return out
 
@@ -62,7 +62,7 @@ def draw_blades(n: int, seed: int, max_draws: int = 200_000) -> list[tuple[str, 
 def evaluate_one(task: tuple[int, str, str, dict, str, int]) -> dict:
     """Evaluate one blade; never raises: the outcome is in the record."""
     from optimizer.config import Config
-    from optimizer.evaluate import evaluate
+    from optimizer.pipeline import evaluate
 
     index, mode, cont, params, level, max_iter = task
     raw = {"blade": {"mode": mode, "continuity": cont, "parameters": params}, "mesh": {"level": level}}
@@ -71,7 +71,7 @@ def evaluate_one(task: tuple[int, str, str, dict, str, int]) -> dict:
     record = {"index": index, "mode": mode, "continuity": cont, "parameters": params, "level": level}
     start = time.perf_counter()
     try:
-        ev = evaluate(Config.model_validate(raw))
+        ev = evaluate(Config.from_mapping(raw))
     except Exception as exc:  # noqa: BLE001 - a sweep records every failure, whatever its type
         return {**record, "status": "failed", "stage": "?", "message": f"{type(exc).__name__}: {exc}",
                 "seconds": time.perf_counter() - start}

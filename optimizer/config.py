@@ -15,12 +15,12 @@ from __future__ import annotations
 
 import copy
 import dataclasses
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
-from typing import Any, Literal
+from typing import Any, Literal, Self
 
 import yaml
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, create_model, field_validator
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, create_model, field_validator, model_validator
 
 from geometry import BladeSpec, Continuity, Mode, ParameterError, ParameterSpace
 from geometry.examples import TABLE4_C2_DESIGN
@@ -39,16 +39,27 @@ class BladeConfig(_Frozen):
     """``blade:`` section — the blade family and one blade of it.
 
     ``parameters`` are the values of one blade (metres and degrees; parameters with a default — L, d_s4,
-    d_p4, R — may be left out); they default to the C2 design blade of Table 4 of the paper.
+    d_p4, R — may be left out). A section that names neither ``mode`` nor ``continuity`` is the C2 design
+    blade of Table 4 of the paper: its parameters default to Table 4's, the given ones replacing them; a
+    section that names its own family gives all its parameters (Table 4's would belong to another family).
     ``bounds`` (``name: [lower, upper]``) and ``fixed`` (``name: value``) change the optimisation space of
     Table 6: a bound frees a fixed parameter or narrows a range, a fixed value removes a design variable.
     """
 
     mode: Mode = Mode(TABLE4_C2_DESIGN["mode"])
     continuity: Continuity = Continuity(TABLE4_C2_DESIGN["continuity"])
-    parameters: dict[str, float] = Field(default_factory=lambda: dict(TABLE4_C2_DESIGN["parameters"]))
+    parameters: dict[str, float] = Field(default_factory=dict)
     bounds: dict[str, tuple[float, float]] = Field(default_factory=dict)
     fixed: dict[str, float] = Field(default_factory=dict)
+
+    @model_validator(mode="before")
+    @classmethod
+    def _table4_unless_own_family(cls, data: Any) -> Any:
+        if isinstance(data, dict) and "mode" not in data and "continuity" not in data:
+            given = data.get("parameters") or {}
+            if isinstance(given, dict):
+                data = {**data, "parameters": {**TABLE4_C2_DESIGN["parameters"], **given}}
+        return data
 
     @field_validator("mode", mode="before")
     @classmethod
@@ -60,8 +71,8 @@ class BladeConfig(_Frozen):
     def _upper(cls, v: Any) -> Any:
         return v.upper() if isinstance(v, str) else v
 
-    def spec(self) -> BladeSpec:
-        """The validated blade (raises ConfigError naming a bad parameter)."""
+    def blade_spec(self) -> BladeSpec:
+        """The validated blade: family and parameter values (raises ConfigError naming a bad parameter)."""
         try:
             return BladeSpec.from_values(self.mode, self.continuity, self.parameters)
         except ParameterError as exc:
@@ -76,13 +87,9 @@ class BladeConfig(_Frozen):
 
 
 class _MeshBase(_Frozen):
-    def spec(self) -> MeshSpec:
-        """The mesh specification: the level's preset with the keys given here applied."""
-        changes = {k: v for k, v in self.model_dump().items() if k != "level" and v is not None}
-        try:
-            return MeshSpec.for_level(self.level, **changes)
-        except ValueError as exc:
-            raise ConfigError(f"mesh: {exc}") from None
+    def given(self) -> dict[str, Any]:
+        """The MeshSpec fields this section sets (``level`` apart): those not None."""
+        return {k: v for k, v in self.model_dump().items() if k != "level" and v is not None}
 
 
 # ``mesh:`` section — the resolution ``level`` and any field of :class:`meshing.MeshSpec` (domain size in
@@ -176,13 +183,11 @@ class Config(_Frozen):
     solver: SolverConfig = SolverConfig()
 
     def mesh_spec(self) -> MeshSpec:
-        """The mesh specification, with ``flow_speed`` and ``viscosity`` (m²/s) taken from ``flow:``
-        unless the ``mesh:`` section sets them."""
-        spec = self.mesh.spec()
-        follow = {"flow_speed": self.flow.speed, "viscosity": self.flow.kinematic_viscosity}
-        changes = {k: v for k, v in follow.items() if getattr(self.mesh, k) is None}
+        """The mesh specification: the ``mesh:`` level's preset with the keys the section sets, and
+        ``flow_speed`` and ``viscosity`` (kinematic, m²/s) from ``flow:`` unless the section sets them."""
+        from_flow = {"flow_speed": self.flow.speed, "viscosity": self.flow.kinematic_viscosity}
         try:
-            return spec.with_(**changes)
+            return MeshSpec.for_level(self.mesh.level, **{**from_flow, **self.mesh.given()})
         except ValueError as exc:
             raise ConfigError(f"mesh: {exc}") from None
 
@@ -195,68 +200,89 @@ class Config(_Frozen):
         return yaml.safe_dump(data, sort_keys=False)
 
 
-def load_config(path: str | Path | None = None, overrides: Sequence[str] = (), blade_values: bool = True) -> Config:
-    """Read ``path`` (or the embedded defaults if ``None``), apply ``KEY=VALUE`` overrides, validate.
+    @classmethod
+    def from_mapping(cls, raw: Mapping[str, Any], overrides: Sequence[str] = (), *,
+                     values: Mapping[str, Any] | None = None, blade_values: bool = True) -> Self:
+        """The configuration of the sections in ``raw`` (as read from YAML), with the ``KEY=VALUE``
+        ``overrides`` and then the typed ``values`` (``{dotted key: value}``) set; validated, or
+        ConfigError naming the key. The one way to build a configuration (:func:`load_config` reads a
+        file into it); a subclass with more sections builds the same way.
 
-    ``blade_values=False`` skips checking ``blade.parameters`` (for commands that need only the space).
-    """
-    raw: dict[str, Any] = {}
-    if path is not None:
+        ``blade_values=False`` skips checking ``blade.parameters`` (for commands that need only the space).
+        """
+        data = set_values(apply_overrides(raw, overrides, cls), (values or {}).items(), cls)
         try:
-            text = Path(path).read_text()
-        except OSError as exc:
-            raise ConfigError(f"cannot read configuration file {path}: {exc.strerror}") from None
-        try:
-            raw = yaml.safe_load(text) or {}
-        except yaml.YAMLError as exc:
-            raise ConfigError(f"{path} is not valid YAML: {exc}") from None
-        if not isinstance(raw, dict):
-            raise ConfigError(f"{path} must be a YAML mapping of sections ({', '.join(Config.model_fields)})")
-    # Blade parameters default to Table 4's, except in a blade section that names its own mode or
-    # continuity: those values would belong to another family.
-    blade = raw.setdefault("blade", {})
-    if isinstance(blade, dict) and "parameters" not in blade:
-        own_family = "mode" in blade or "continuity" in blade
-        blade["parameters"] = {} if own_family else dict(TABLE4_C2_DESIGN["parameters"])
-    raw = apply_overrides(raw, overrides)
+            config = cls.model_validate(data)
+        except ValidationError as exc:
+            raise ConfigError(_explain(exc, cls)) from None
+        if blade_values:
+            config.blade.blade_spec()  # parameter names and domains are checked here, once
+        config.blade.space()
+        config.mesh_spec()
+        return config
+
+
+def load_config(path: str | Path | None = None, overrides: Sequence[str] = (), *,
+                values: Mapping[str, Any] | None = None, schema: type[Config] = Config,
+                blade_values: bool = True) -> Config:
+    """Read ``path`` (or the embedded defaults if ``None``) into ``schema`` (:class:`Config` or a
+    subclass of it), with ``KEY=VALUE`` ``overrides`` and typed ``values`` set: :meth:`Config.from_mapping`."""
+    return schema.from_mapping(read_yaml(path, schema) if path is not None else {}, overrides, values=values,
+                               blade_values=blade_values)
+
+
+def read_yaml(path: str | Path, schema: type[Config] = Config) -> dict[str, Any]:
+    """The mapping of sections in the YAML file ``path`` (ConfigError if it cannot be read or is not one)."""
     try:
-        config = Config.model_validate(raw)
-    except ValidationError as exc:
-        raise ConfigError(_explain(exc)) from None
-    if blade_values:
-        config.blade.spec()  # parameter names and domains are checked here, once
-    config.blade.space()
-    config.mesh_spec()
-    return config
+        text = Path(path).read_text()
+    except OSError as exc:
+        raise ConfigError(f"cannot read configuration file {path}: {exc.strerror}") from None
+    try:
+        raw = yaml.safe_load(text) or {}
+    except yaml.YAMLError as exc:
+        raise ConfigError(f"{path} is not valid YAML: {exc}") from None
+    if not isinstance(raw, dict):
+        raise ConfigError(f"{path} must be a YAML mapping of sections ({', '.join(schema.model_fields)})")
+    return raw
 
 
-def apply_overrides(raw: Mapping[str, Any], overrides: Sequence[str]) -> dict[str, Any]:
-    """A copy of ``raw`` with each ``KEY=VALUE`` set (see module docstring)."""
-    result = copy.deepcopy(dict(raw))
+def apply_overrides(raw: Mapping[str, Any], overrides: Sequence[str], schema: type[Config] = Config) -> dict[str, Any]:
+    """A copy of ``raw`` with each ``KEY=VALUE`` set, the value read as a YAML scalar (see module docstring)."""
+    pairs = []
     for item in overrides:
         key, sep, text = item.partition("=")
         if not sep or not key.strip():
             raise ConfigError(f"override {item!r} must look like KEY=VALUE, e.g. alpha=25 or blade.mode=toolpath")
-        path = key.strip().split(".")
-        if len(path) == 1 and path[0] not in Config.model_fields:
+        pairs.append((key.strip(), yaml.safe_load(text)))
+    return set_values(raw, pairs, schema)
+
+
+def set_values(raw: Mapping[str, Any], values: Iterable[tuple[str, Any]], schema: type[Config] = Config
+               ) -> dict[str, Any]:
+    """A copy of ``raw`` with each ``(dotted key, value)`` set; a bare name that is not a section of
+    ``schema`` is a blade parameter (``alpha`` is ``blade.parameters.alpha``)."""
+    result = copy.deepcopy(dict(raw))
+    for key, value in values:
+        path = key.split(".")
+        if len(path) == 1 and path[0] not in schema.model_fields:
             path = ["blade", "parameters", path[0]]
         node = result
         for part in path[:-1]:
             child = node.setdefault(part, {})
             if not isinstance(child, dict):
-                raise ConfigError(f"override {item!r}: {part!r} is a value, not a section")
+                raise ConfigError(f"override {key!r}: {part!r} is a value, not a section")
             node = child
-        node[path[-1]] = yaml.safe_load(text)
+        node[path[-1]] = value
     return result
 
 
-def _explain(exc: ValidationError) -> str:
+def _explain(exc: ValidationError, schema: type[Config]) -> str:
     """One line per problem, naming the key and what it allows."""
     lines = []
     for err in exc.errors():
         where = ".".join(str(p) for p in err["loc"])
         if err["type"] == "extra_forbidden":
-            allowed = _allowed_keys(err["loc"][:-1])
+            allowed = _allowed_keys(schema, err["loc"][:-1])
             lines.append(f"unknown key '{where}'; allowed: {', '.join(allowed)}")
         elif err["type"] in ("enum", "literal_error"):
             lines.append(f"'{where}' = {err['input']!r} is not allowed; allowed: {err['ctx']['expected']}")
@@ -265,8 +291,8 @@ def _explain(exc: ValidationError) -> str:
     return "; ".join(lines)
 
 
-def _allowed_keys(loc: Sequence[Any]) -> list[str]:
-    model: type[BaseModel] = Config
+def _allowed_keys(schema: type[BaseModel], loc: Sequence[Any]) -> list[str]:
+    model = schema
     for part in loc:
         field = model.model_fields.get(str(part))
         if field is None or not isinstance(field.annotation, type) or not issubclass(field.annotation, BaseModel):

@@ -1,4 +1,4 @@
-"""One evaluation end to end (optimizer.evaluate): geometry → mesh → solve → figures, and its failures.
+"""One evaluation end to end (optimizer.pipeline): geometry → mesh → solve → figures, and its failures.
 
 The flow runs are laminar at Re = C0 L / nu = 0.2 · 0.1 / 1e-3 = 20 on the coarse mesh of the benchmark
 G1 blade (steady, converges in ~250 SIMPLEC iterations, a few seconds); the paper's k-ω SST case at
@@ -14,7 +14,9 @@ import pytest
 import yaml
 
 from optimizer.config import ConfigError, load_config
-from optimizer.evaluate import SIDES, evaluate, save
+from optimizer.evaluation import SIDES
+from optimizer.pipeline import evaluate
+from optimizer.saving import save
 
 BENCH = Path(__file__).parents[2] / "configs" / "examples" / "bench_g1_design.yaml"
 LAMINAR = ["solver.model=laminar", "flow.speed=0.2", "flow.viscosity=0.9982", "mesh.level=coarse",
@@ -45,7 +47,7 @@ def test_laminar_evaluation_converges_with_consistent_figures(laminar):
     assert ev.c_max > 0.2                                       # flow accelerates around the blade
     assert 0 < ev.yplus_mean < ev.yplus_max < 1
     assert ev.missing == {} and ev.values_from == "final iterate"
-    flow = ev.artifacts["flow"]
+    flow = ev.artifacts.flow
     assert ev.fx == pytest.approx(flow.forces("blade").fx) and ev.c_max == pytest.approx(flow.c_max)
     # progress: every stage started and ended, solver progress every 100 iterations
     assert [line for line in lines if line.endswith("start")] == [f"{s}: start" for s in ev.seconds]
@@ -54,11 +56,11 @@ def test_laminar_evaluation_converges_with_consistent_figures(laminar):
 
 def test_wall_distribution_splits_the_blade_and_integrates_to_the_forces(laminar):
     config, ev, _ = laminar
-    w, flow = ev.wall, ev.artifacts["flow"]
+    w, flow = ev.wall, ev.artifacts.flow
     m = flow.mesh
     faces = m.boundary["blade"]
     assert w.s.size == faces.size and set(w.side) == set(SIDES)
-    profile = ev.artifacts["profile"]
+    profile = ev.artifacts.profile
     seg = np.linalg.norm(np.diff(np.vstack([profile.points, profile.points[:1]]), axis=0), axis=1)
     for side in SIDES:
         part = w.part(side)
@@ -115,11 +117,12 @@ def test_infeasible_blade_is_recorded_at_the_geometry_stage():
 
 def test_mesh_failure_is_recorded_at_the_mesh_stage(monkeypatch):
     import meshing
+    from optimizer import pipeline
 
-    def broken(profile, spec):
+    def broken(profile, mesh_spec):
         raise meshing.MeshingError("gmsh could not recover the boundary")
 
-    monkeypatch.setattr(meshing, "build_mesh", broken)
+    monkeypatch.setattr(pipeline, "build_mesh", broken)
     ev = evaluate(load_config(BENCH, LAMINAR))
     assert ev.status == "failed" and ev.stage == "mesh" and "gmsh could not recover" in ev.message
     assert set(ev.seconds) == {"geometry", "mesh"}
@@ -128,21 +131,21 @@ def test_mesh_failure_is_recorded_at_the_mesh_stage(monkeypatch):
 def test_divergence_is_recorded_at_the_solve_stage(monkeypatch):
     import dataclasses
 
-    import solver
+    from optimizer import pipeline
 
-    real = solver.solve_steady
+    real = pipeline.solve_steady
 
     def tight(problem, settings, *args, **kwargs):        # the solver's own velocity guard trips at once
         return real(problem, dataclasses.replace(settings, velocity_limit=0.1), *args, **kwargs)
 
-    monkeypatch.setattr(solver, "solve_steady", tight)
+    monkeypatch.setattr(pipeline, "solve_steady", tight)
     ev = evaluate(load_config(BENCH, LAMINAR))
     assert ev.status == "diverged" and ev.stage == "solve" and ev.iterations == 1
     assert "velocity exploded" in ev.message and ev.c_max is None and ev.cells > 0
 
 
 def test_non_finite_figures_become_none_with_a_reason(monkeypatch):
-    from solver.results import FlowResults
+    from solver import FlowResults
 
     monkeypatch.setattr(FlowResults, "c_max", property(lambda self: float("nan")))
     ev = evaluate(load_config(BENCH, [*LAMINAR, "solver.max_iter=30"]))
@@ -153,7 +156,6 @@ def test_non_finite_figures_become_none_with_a_reason(monkeypatch):
 
 
 def test_sst_pipeline_runs_a_few_iterations():
-    pytest.importorskip("solver.turbulence")
     config = load_config(BENCH, ["mesh.level=coarse", "mesh.half_height=5", "solver.max_iter=15"])
     ev = evaluate(config)
     assert ev.model == "sst" and ev.ok and not ev.converged and ev.iterations == 15
@@ -187,4 +189,4 @@ def test_bench_example_is_the_g1_design_blade():
     assert raw["mesh"]["half_height"] == 1.0
     from geometry import evaluate_blade
 
-    assert evaluate_blade(load_config(BENCH).blade.spec()).feasible
+    assert evaluate_blade(load_config(BENCH).blade.blade_spec()).feasible

@@ -1,0 +1,53 @@
+"""The ``millfoil`` command line: a thin layer over plain functions, one module per command group.
+
+Each module of :data:`COMMANDS` has ``register(subparsers)``, which adds its commands with a
+``run(args) -> exit status`` default; a new command group is one module and one entry here.
+:mod:`optimizer.cli.common` holds what they share.
+
+Exit status: 0 success, 2 bad input (configuration, override, file), 3 the blade is infeasible (its
+constraints are printed; files are still written when the profile could be built), 4 a stage failed
+(the mesh could not be built or is below the quality thresholds, or the flow solve diverged; the reason is
+printed). ``millfoil evaluate`` returns 0 whenever the solve ran (its status, possibly ``not_converged``, is
+printed).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from collections.abc import Sequence
+
+from optimizer.cli import blade, evaluate, mesh, validate
+from optimizer.cli.common import EXIT_FAILED, EXIT_INFEASIBLE, EXIT_INPUT, EXIT_OK
+from optimizer.config import ConfigError
+
+__all__ = ["COMMANDS", "EXIT_FAILED", "EXIT_INFEASIBLE", "EXIT_INPUT", "EXIT_OK", "main"]
+
+#: Command modules, in the order of ``millfoil --help``.
+COMMANDS = (blade, mesh, evaluate, validate)
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run ``millfoil`` with ``argv`` (default: the process's arguments); returns the exit status."""
+    parser = _parser()
+    args = parser.parse_args(argv)
+    if not hasattr(args, "run"):
+        parser.print_help()
+        return EXIT_INPUT
+    try:
+        return args.run(args)
+    except ConfigError as exc:
+        print(f"millfoil: error: {exc}", file=sys.stderr)
+        return EXIT_INPUT
+
+
+def _parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="millfoil",
+        description="Multi-objective shape optimisation of hydraulic blade profiles, designed directly or "
+        "through the milling tool path that machines them (Vessaz et al. 2013).",
+    )
+    sub = parser.add_subparsers(title="commands", metavar="COMMAND")
+    for module in COMMANDS:
+        module.register(sub)
+    return parser

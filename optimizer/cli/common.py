@@ -1,0 +1,44 @@
+"""What the ``millfoil`` commands share: exit statuses, the configuration arguments, progress lines."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from optimizer.config import Config, load_config
+
+#: Exit statuses: success, bad input (configuration, override, file), infeasible blade, a stage failed.
+EXIT_OK, EXIT_INPUT, EXIT_INFEASIBLE, EXIT_FAILED = 0, 2, 3, 4
+#: Mesh resolution levels a command accepts on ``--level``.
+LEVEL_CHOICES = ("coarse", "medium", "fine")
+
+
+def config_arguments(parser: argparse.ArgumentParser) -> None:
+    """The configuration file and ``--set`` overrides that every command reading a config takes."""
+    parser.add_argument("config", nargs="?", type=Path, help="YAML configuration file (default: the embedded "
+                        "defaults, i.e. the Table 4 blade)")
+    parser.add_argument("--set", dest="overrides", action="append", default=[], metavar="NAME=VALUE",
+                        help="override a value: a blade parameter (alpha=25, in m or deg) or a dotted key "
+                        "(blade.mode=toolpath, mesh.level=fine); repeatable")
+
+
+def level_argument(parser: argparse.ArgumentParser, what: str = "resolution level") -> None:
+    """``--level``: the mesh level, applied over the configuration's ``mesh.level`` (see :func:`load`)."""
+    parser.add_argument("--level", choices=LEVEL_CHOICES,
+                        help=f"{what} (default: the config's mesh.level, else medium)")
+
+
+def load(args: argparse.Namespace, *, blade_values: bool = True) -> Config:
+    """The configuration of a command's arguments: the file, its ``--set`` overrides, then ``--level``
+    (a typed value, not re-parsed) where the command has one and it was given."""
+    level = getattr(args, "level", None)
+    values = {"mesh.level": level} if level else None
+    return load_config(args.config, args.overrides, values=values, blade_values=blade_values)
+
+
+def progress_printer(quiet: bool):
+    """A ``log`` callable printing ``millfoil: LINE`` on stderr, or None when ``quiet``."""
+    if quiet:
+        return None
+    return lambda line: print(f"millfoil: {line}", file=sys.stderr, flush=True)
