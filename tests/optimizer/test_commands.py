@@ -4,22 +4,13 @@ import json
 from pathlib import Path
 
 import pytest
-import yaml
 
-from geometry.examples import TABLE4_C2_DESIGN, TABLE5_G1_TOOLPATH
 from optimizer.cli import EXIT_FAILED, EXIT_INFEASIBLE, EXIT_INPUT, EXIT_OK, main
-from optimizer.config import ConfigError, load_config
 
 EXAMPLES = Path(__file__).parents[2] / "configs" / "examples"
 
 
-@pytest.mark.parametrize("name,embedded", [("table4_c2_design.yaml", TABLE4_C2_DESIGN),
-                                           ("table5_g1_toolpath.yaml", TABLE5_G1_TOOLPATH)])
-def test_shipped_examples_match_the_embedded_tables(name, embedded):
-    blade = yaml.safe_load((EXAMPLES / name).read_text())["blade"]
-    assert blade == embedded
-
-
+@pytest.mark.slow
 def test_profile_of_each_example_writes_csv_and_plot(tmp_path, capsys):
     for name in ("table4_c2_design.yaml", "table5_g1_toolpath.yaml"):
         csv, png = tmp_path / f"{name}.csv", tmp_path / f"{name}.png"
@@ -58,13 +49,6 @@ def test_bad_input_is_a_clear_error(argv, message, capsys):
     assert message in capsys.readouterr().err
 
 
-def test_a_file_without_parameters_reports_the_missing_ones(tmp_path):
-    path = tmp_path / "blade.yaml"
-    path.write_text("blade:\n  mode: toolpath\n  continuity: G2\n")
-    with pytest.raises(ConfigError, match="missing parameters 'alpha', 'beta1'"):
-        load_config(path)
-
-
 def test_help_lists_the_profile_command(capsys):
     with pytest.raises(SystemExit):
         main(["--help"])
@@ -85,6 +69,7 @@ def test_space_overrides_are_validated(capsys):
     assert "bounds of 'alpha' must satisfy lower <= upper" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_mesh_command_writes_mesh_and_plot(tmp_path, capsys):
     msh, png = tmp_path / "blade.msh", tmp_path / "blade.png"
     argv = ["mesh", str(EXAMPLES / "table5_g1_toolpath.yaml"), "--level", "coarse", "--out", str(msh),
@@ -103,11 +88,45 @@ def test_mesh_options_are_validated(capsys):
     assert "unknown key 'mesh.cells'; allowed: level, upstream" in capsys.readouterr().err
 
 
+def test_mesh_failure_is_exit_4_with_the_mesher_message(monkeypatch, capsys):
+    import meshing
+    from optimizer import pipeline
+
+    def broken(profile, mesh_spec):
+        raise meshing.MeshingError("gmsh could not recover the boundary")
+
+    monkeypatch.setattr(pipeline, "build_mesh", broken)
+    assert main(["mesh", "--level", "coarse"]) == EXIT_FAILED
+    assert capsys.readouterr().err == "millfoil: mesh failed: gmsh could not recover the boundary\n"
+
+
+def test_level_is_applied_over_the_configuration_as_a_typed_value():
+    import argparse
+
+    from optimizer.cli.common import load
+
+    args = argparse.Namespace(config=EXAMPLES / "bench_g1_design.yaml", overrides=["mesh.level=fine"], level="coarse")
+    assert load(args).mesh_spec().level == "coarse"
+    assert load(argparse.Namespace(config=None, overrides=["mesh.level=fine"])).mesh.level == "fine"
+
+
+def test_every_command_module_registers_its_commands(capsys):
+    from optimizer.cli import COMMANDS
+
+    with pytest.raises(SystemExit):
+        main(["--help"])
+    out = capsys.readouterr().out
+    assert len(COMMANDS) == 4
+    for command in ("profile", "space", "mesh", "evaluate", "validate"):
+        assert command in out
+
+
 def test_mesh_of_an_infeasible_blade_says_why(capsys):
     assert main(["mesh", "--set", "beta1=40"]) == EXIT_INFEASIBLE
     assert "eq21_inlet" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_validate_prints_one_json_object_per_quantity(capsys):
     assert main(["validate", "cylinder", "--json"]) == EXIT_OK
     rows = [json.loads(line) for line in capsys.readouterr().out.splitlines()]
@@ -132,6 +151,7 @@ _LAMINAR_RE20 = ["--set", "solver.model=laminar", "--set", "flow.speed=0.2", "--
                  "--set", "solver.alpha_u=0.9", "--set", "solver.alpha_p=null", "--set", "solver.tol=1e-5"]
 
 
+@pytest.mark.slow
 def test_evaluate_json_and_save(tmp_path, capsys):
     out = tmp_path / "run"
     argv = ["evaluate", str(EXAMPLES / "bench_g1_design.yaml"), "--level", "coarse", *_LAMINAR_RE20,
@@ -154,6 +174,11 @@ def test_evaluate_exit_codes(capsys):
     assert "FAILED at stage geometry: infeasible" in capsys.readouterr().out
     assert main(["evaluate", bench, "--set", "solver.modle=sst"]) == EXIT_INPUT
     assert "unknown key 'solver.modle'" in capsys.readouterr().err
+
+
+@pytest.mark.slow
+def test_evaluate_exit_code_of_a_mesh_failure(capsys):
+    bench = str(EXAMPLES / "bench_g1_design.yaml")
     assert main(["evaluate", bench, "--level", "coarse", "--quiet", *_LAMINAR_RE20,
                  "--set", "mesh.y_plus=40"]) == EXIT_FAILED          # first cell thicker than the O-layer
     assert "FAILED at stage mesh" in capsys.readouterr().out

@@ -1,0 +1,94 @@
+"""Configuration files: sections, defaults, overrides, validation messages, one way to build a config."""
+
+import re
+from pathlib import Path
+
+import pytest
+import yaml
+
+from geometry import evaluate_blade
+from geometry.examples import TABLE4_C2_DESIGN, TABLE5_G1_TOOLPATH
+from optimizer.config import Config, ConfigError, load_config
+
+EXAMPLES = Path(__file__).parents[2] / "configs" / "examples"
+BENCH = EXAMPLES / "bench_g1_design.yaml"
+
+
+@pytest.mark.parametrize("name,embedded", [("table4_c2_design.yaml", TABLE4_C2_DESIGN),
+                                           ("table5_g1_toolpath.yaml", TABLE5_G1_TOOLPATH)])
+def test_shipped_examples_match_the_embedded_tables(name, embedded):
+    blade = yaml.safe_load((EXAMPLES / name).read_text())["blade"]
+    assert blade == embedded
+
+
+def test_bench_example_is_the_g1_design_blade():
+    raw = yaml.safe_load(BENCH.read_text())
+    assert raw["blade"]["mode"] == "design" and raw["blade"]["continuity"] == "G1"
+    assert raw["mesh"]["half_height"] == 1.0
+    assert evaluate_blade(load_config(BENCH).blade.blade_spec()).feasible
+
+
+def test_a_file_without_parameters_reports_the_missing_ones(tmp_path):
+    path = tmp_path / "blade.yaml"
+    path.write_text("blade:\n  mode: toolpath\n  continuity: G2\n")
+    with pytest.raises(ConfigError, match="missing parameters 'alpha', 'beta1'"):
+        load_config(path)
+
+
+def test_table4_parameters_are_the_default_of_a_blade_that_names_no_family():
+    assert load_config().blade.parameters == TABLE4_C2_DESIGN["parameters"]
+    changed = load_config(overrides=["alpha=20"]).blade.parameters
+    assert changed == {**TABLE4_C2_DESIGN["parameters"], "alpha": 20}
+    # the same rule whichever way the configuration is built (the robustness bench builds from a mapping)
+    for raw in ({}, {"blade": {"parameters": {"alpha": 20}}}, {"blade": {"mode": "toolpath", "continuity": "G1"}}):
+        assert Config.model_validate(raw) == Config.from_mapping(raw, blade_values=False)
+    assert Config.model_validate({"blade": {"mode": "toolpath"}}).blade.parameters == {}
+
+
+def test_typed_values_are_set_after_the_overrides():
+    config = load_config(BENCH, ["mesh.level=fine", "alpha=10"], values={"mesh.level": "coarse", "beta1": 1.5})
+    assert config.mesh.level == "coarse" and config.mesh_spec().level == "coarse"
+    assert config.blade.parameters["alpha"] == 10 and config.blade.parameters["beta1"] == 1.5
+
+
+def test_a_subclass_with_more_sections_loads_the_same_way(tmp_path):
+    class Extended(Config):
+        extra: dict[str, int] = {}
+
+    path = tmp_path / "c.yaml"
+    path.write_text("extra: {a: 1}\nflow: {speed: 2.0}\n")
+    config = load_config(path, ["extra.b=2"], schema=Extended)
+    assert isinstance(config, Extended) and config.extra == {"a": 1, "b": 2} and config.flow.speed == 2.0
+    with pytest.raises(ConfigError, match="unknown key 'extras'; allowed: blade, mesh, flow, solver, extra"):
+        load_config(overrides=["extras.a=1"], schema=Extended)
+
+
+def test_flow_section_drives_the_mesh_unless_the_mesh_sets_it():
+    c = load_config(BENCH, ["flow.speed=2", "flow.viscosity=2e-3", "flow.density=1000"])
+    assert c.mesh_spec().flow_speed == 2 and c.mesh_spec().viscosity == pytest.approx(2e-6)
+    c = load_config(BENCH, ["flow.speed=2", "mesh.flow_speed=5"])
+    assert c.mesh_spec().flow_speed == 5
+    assert load_config(BENCH).flow.span_for(0.1) == pytest.approx(0.004)
+    assert load_config(BENCH, ["flow.span=0.01"]).flow.span_for(0.1) == 0.01
+
+
+@pytest.mark.parametrize("override,message", [
+    ("flow.sped=3", "unknown key 'flow.sped'; allowed: speed, density"),
+    ("solver.model=kepsilon", "'solver.model' = 'kepsilon' is not allowed"),
+    ("flow.intensity=2", "'flow.intensity'"),
+    ("solver.wall_treatment=wallfn", "allowed: 'automatic' or 'low_re'"),
+    ("solver.alpha_u=1.5", "'solver.alpha_u': Input should be less than or equal to 1 (got 1.5)"),
+    ("solver.max_iter=0", "'solver.max_iter': Input should be greater than 0 (got 0)"),
+    ("solver.algorithm=piso", "'solver.algorithm' = 'piso' is not allowed; allowed: 'simple' or 'simplec'"),
+])
+def test_flow_and_solver_sections_are_validated(override, message):
+    with pytest.raises(ConfigError, match=re.escape(message)):
+        load_config(BENCH, [override])
+
+
+def test_saved_config_reads_back_the_same():
+    config = load_config(BENCH, ["solver.max_iter=30", "mesh.level=coarse"])
+    again = Config.from_mapping(yaml.safe_load(config.to_yaml()))
+    assert again.mesh_spec() == config.mesh_spec() and again.flow == config.flow and again.solver == config.solver
+    assert again.blade == config.blade
+
