@@ -25,6 +25,8 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, create_model
 from geometry import BladeSpec, Continuity, Mode, ParameterError, ParameterSpace
 from geometry.examples import TABLE4_C2_DESIGN
 from meshing import LEVELS, MeshSpec
+from optimizer import yamlsource
+from optimizer.yamlsource import Source
 
 
 class ConfigError(ValueError):
@@ -202,23 +204,28 @@ class Config(_Frozen):
 
     @classmethod
     def from_mapping(cls, raw: Mapping[str, Any], overrides: Sequence[str] = (), *,
-                     values: Mapping[str, Any] | None = None, blade_values: bool = True) -> Self:
+                     values: Mapping[str, Any] | None = None, blade_values: bool = True,
+                     source: Source | None = None) -> Self:
         """The configuration of the sections in ``raw`` (as read from YAML), with the ``KEY=VALUE``
         ``overrides`` and then the typed ``values`` (``{dotted key: value}``) set; validated, or
         ConfigError naming the key. The one way to build a configuration (:func:`load_config` reads a
         file into it); a subclass with more sections builds the same way.
 
         ``blade_values=False`` skips checking ``blade.parameters`` (for commands that need only the space).
+        ``source``: where ``raw`` was read (:mod:`optimizer.yamlsource`): messages then start ``FILE:LINE:``.
         """
         data = set_values(apply_overrides(raw, overrides, cls), (values or {}).items(), cls)
         try:
             config = cls.model_validate(data)
         except ValidationError as exc:
-            raise ConfigError(_explain(exc, cls)) from None
-        if blade_values:
-            config.blade.blade_spec()  # parameter names and domains are checked here, once
-        config.blade.space()
-        config.mesh_spec()
+            raise ConfigError(_explain(exc, cls, source)) from None
+        for section, check in (("blade", config.blade.blade_spec if blade_values else None),
+                               ("blade", config.blade.space), ("mesh", config.mesh_spec)):
+            try:
+                if check is not None:
+                    check()   # parameter names and domains, the space and the mesh are checked here, once
+            except ConfigError as exc:
+                raise ConfigError(f"{source.where((section,))}: {exc}" if source else str(exc)) from None
         return config
 
 
@@ -227,23 +234,25 @@ def load_config(path: str | Path | None = None, overrides: Sequence[str] = (), *
                 blade_values: bool = True) -> Config:
     """Read ``path`` (or the embedded defaults if ``None``) into ``schema`` (:class:`Config` or a
     subclass of it), with ``KEY=VALUE`` ``overrides`` and typed ``values`` set: :meth:`Config.from_mapping`."""
-    return schema.from_mapping(read_yaml(path, schema) if path is not None else {}, overrides, values=values,
-                               blade_values=blade_values)
+    raw, source = read_yaml_source(path, schema) if path is not None else ({}, None)
+    return schema.from_mapping(raw, overrides, values=values, blade_values=blade_values, source=source)
 
 
 def read_yaml(path: str | Path, schema: type[Config] = Config) -> dict[str, Any]:
     """The mapping of sections in the YAML file ``path`` (ConfigError if it cannot be read or is not one)."""
+    return read_yaml_source(path, schema)[0]
+
+
+def read_yaml_source(path: str | Path, schema: type[Config] = Config) -> tuple[dict[str, Any], Source]:
+    """:func:`read_yaml` and where each key is (:class:`optimizer.yamlsource.Source`, for error lines)."""
     try:
-        text = Path(path).read_text()
-    except OSError as exc:
-        raise ConfigError(f"cannot read configuration file {path}: {exc.strerror}") from None
-    try:
-        raw = yaml.safe_load(text) or {}
-    except yaml.YAMLError as exc:
-        raise ConfigError(f"{path} is not valid YAML: {exc}") from None
+        raw, source = yamlsource.read_yaml(path)
+    except yamlsource.YamlSourceError as exc:
+        raise ConfigError(str(exc)) from None
+    raw = raw or {}
     if not isinstance(raw, dict):
         raise ConfigError(f"{path} must be a YAML mapping of sections ({', '.join(schema.model_fields)})")
-    return raw
+    return raw, source
 
 
 def apply_overrides(raw: Mapping[str, Any], overrides: Sequence[str], schema: type[Config] = Config) -> dict[str, Any]:
@@ -276,18 +285,19 @@ def set_values(raw: Mapping[str, Any], values: Iterable[tuple[str, Any]], schema
     return result
 
 
-def _explain(exc: ValidationError, schema: type[Config]) -> str:
-    """One line per problem, naming the key and what it allows."""
+def _explain(exc: ValidationError, schema: type[Config], source: Source | None = None) -> str:
+    """One line per problem, naming the key and what it allows (and ``FILE:LINE:`` with a ``source``)."""
     lines = []
     for err in exc.errors():
         where = ".".join(str(p) for p in err["loc"])
+        at = f"{source.where(err['loc'])}: " if source is not None else ""
         if err["type"] == "extra_forbidden":
             allowed = _allowed_keys(schema, err["loc"][:-1])
-            lines.append(f"unknown key '{where}'; allowed: {', '.join(allowed)}")
+            lines.append(f"{at}unknown key '{where}'; allowed: {', '.join(allowed)}")
         elif err["type"] in ("enum", "literal_error"):
-            lines.append(f"'{where}' = {err['input']!r} is not allowed; allowed: {err['ctx']['expected']}")
+            lines.append(f"{at}'{where}' = {err['input']!r} is not allowed; allowed: {err['ctx']['expected']}")
         else:
-            lines.append(f"'{where}': {err['msg']} (got {err['input']!r})")
+            lines.append(f"{at}'{where}': {err['msg']} (got {err['input']!r})")
     return "; ".join(lines)
 
 
