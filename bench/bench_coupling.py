@@ -12,8 +12,8 @@ from __future__ import annotations
 import argparse
 import time
 
-from solver.cylinder import coefficients, cylinder_settings, errors, run_cylinder
 from solver.linalg import SolverSettings
+from solver.validation.cylinder import coefficients, cylinder_settings, errors, run_cylinder
 
 VARIANTS = {
     "SIMPLEC + AMG-CG": dict(algorithm="simplec", alpha_p=1.0),

@@ -21,8 +21,8 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).parents[1]))
 
-from solver.cavity import BOUNDARY_CONDITIONS, cavity_mesh, cavity_settings, compare  # noqa: E402
-from solver.steady import Fluid, Problem, solve_steady  # noqa: E402
+from solver import Fluid, Problem, solve_steady  # noqa: E402
+from solver.validation.cavity import BOUNDARY_CONDITIONS, cavity_mesh, cavity_settings, compare  # noqa: E402
 
 
 def bench(n: int, re: int, max_iter: int, kind: str) -> dict:
@@ -40,11 +40,11 @@ def bench(n: int, re: int, max_iter: int, kind: str) -> dict:
 
 
 def bench_cylinder(n_quarter: int, max_iter: int) -> dict:
-    """DFG 2D-1 on :func:`solver.gmsh_meshes.dfg_cylinder` with ``n_quarter`` cells per cylinder quarter
+    """DFG 2D-1 on :func:`solver.validation.meshes.dfg_cylinder` with ``n_quarter`` cells per cylinder quarter
     and the far-field size scaled with it (``h_far = 0.3 / n_quarter`` m); ``rms`` is the C_D error."""
-    from solver.cylinder import BOUNDARY_CONDITIONS as CYL_BC
-    from solver.cylinder import FLUID, coefficients, cylinder_settings, errors
-    from solver.gmsh_meshes import dfg_cylinder
+    from solver.validation.cylinder import BOUNDARY_CONDITIONS as CYL_BC
+    from solver.validation.cylinder import FLUID, coefficients, cylinder_settings, errors
+    from solver.validation.meshes import dfg_cylinder
 
     t0 = time.perf_counter()
     mesh = dfg_cylinder(n_quarter, h_far=0.3 / n_quarter)

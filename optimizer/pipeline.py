@@ -182,9 +182,7 @@ def simple_settings(config: Config) -> SimpleSettings:
     changes = dict(max_iter=s.max_iter, tol=s.tol, monitor_tol=s.monitor_tol, monitor_window=s.monitor_window,
                    monitor_groups=(BLADE,), classify_window=s.classify_window, classify_tol=s.classify_tol,
                    stall_tol=s.stall_tol, convection=s.convection, algorithm=s.algorithm, alpha_u=s.alpha_u,
-                   alpha_p=1.0 if s.alpha_p is None and s.algorithm == "simplec" else s.alpha_p)
-    if changes["alpha_p"] is None:
-        changes.pop("alpha_p")
+                   alpha_p=s.alpha_p)          # None: 1 (SimpleSettings.pressure_relaxation)
     return dataclasses.replace(SimpleSettings(), **changes)
 
 
@@ -194,7 +192,7 @@ def solve_flow(config: Config, fvmesh: FVMesh, *, log: Log | None = None, every:
     from ``warm_start`` mapped to this mesh when given). ``log`` gets the residuals every ``every``
     iterations (0: never). StageFailure ``failed`` if the problem cannot be set up; a diverged solve is
     returned (its status says so)."""
-    from solver.steady import initial_state
+    from solver import initial_state
     from solver.warmstart import mapped_state
 
     s = config.solver

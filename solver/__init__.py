@@ -14,19 +14,27 @@ Turbulent (Menter SST-2003, :mod:`solver.turbulence`; inlet turbulence from the 
 parameters ``intensity`` (default 0.05) and ``viscosity_ratio`` (default 10))::
 
     problem = Problem.create(mesh, bcs, fluid, turbulence=SST(wall_treatment="automatic"))
-    res = solve_steady(problem, SimpleSettings(alpha_u=0.7, monitor_groups=("blade",)))
+    res = solve_steady(problem, SimpleSettings(monitor_groups=("blade",)))
     res.k, res.omega, res.nu_t, res.wall_shear("blade"), res.y_plus("blade")
+
+Start from another solution with ``solve_steady(problem, settings, mapped_state(problem, other_results))``;
+:func:`classify` tells converged, oscillating and drifting monitor histories apart. The validation cases
+(``millfoil validate``) live in :mod:`solver.validation`, which the solver core does not import.
 """
 
 from .boundary import BOUNDARY_CONDITIONS, resolve_boundaries
+from .convergence import classify
 from .fvmesh import FVMesh, MeshError, build_fvmesh, from_meshio, from_msh
 from .linalg import LINEAR_SOLVERS, SolverSettings
+from .problem import FlowState, Fluid, Problem, initial_state
 from .results import FlowResults, Forces
-from .steady import Fluid, Problem, SimpleSettings, solve_steady
+from .settings import SimpleSettings
+from .simple import solve_steady
 from .turbulence import SST, SSTConstants
+from .warmstart import mapped_state
 
 __all__ = [
-    "BOUNDARY_CONDITIONS", "FVMesh", "FlowResults", "Fluid", "Forces", "LINEAR_SOLVERS", "MeshError",
-    "Problem", "SST", "SSTConstants", "SimpleSettings", "SolverSettings", "build_fvmesh", "from_meshio", "from_msh",
-    "resolve_boundaries", "solve_steady",
+    "BOUNDARY_CONDITIONS", "FVMesh", "FlowResults", "FlowState", "Fluid", "Forces", "LINEAR_SOLVERS", "MeshError",
+    "Problem", "SST", "SSTConstants", "SimpleSettings", "SolverSettings", "build_fvmesh", "classify", "from_meshio",
+    "from_msh", "initial_state", "mapped_state", "resolve_boundaries", "solve_steady",
 ]

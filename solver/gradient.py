@@ -1,4 +1,4 @@
-"""Cell gradients (weighted least squares) and slope limiters, vectorised over cells.
+"""Cell gradients (weighted least squares), slope limiters and face interpolation, vectorised over cells.
 
 A gradient needs the cell values ``phi (nc,)`` and the boundary-face values ``phi_b (nb,)`` (the value at
 each boundary face centre, supplied by the boundary conditions). The least-squares stencil is the face
@@ -87,11 +87,14 @@ def limited_gradient(mesh: FVMesh, phi, phi_b, grad=None, limiter: str = "venkat
     return grad * fn(mesh, phi, phi_b, grad, k)[:, None]
 
 
-def face_gradient(mesh: FVMesh, grad: np.ndarray) -> np.ndarray:
-    """Linear interpolation of cell values ``(nc, ...)`` (e.g. a gradient) to the internal faces."""
+def interpolate_linear(mesh: FVMesh, phi: np.ndarray) -> np.ndarray:
+    """Linear interpolation of cell values ``(nc, ...)`` (a field, a gradient, a coefficient) to the internal
+    faces ``(ni, ...)``: ``w phi_P + (1 - w) phi_N`` with the distance weights :attr:`FVMesh.weight`. The one
+    plain face interpolation of the solver; :func:`interpolate_corrected` adds the skewness correction and
+    :func:`face_average` the quadratic face mean."""
     ni = mesh.n_internal
-    w = mesh.weight[:ni].reshape((-1,) + (1,) * (grad.ndim - 1))
-    return w * grad[mesh.owner[:ni]] + (1.0 - w) * grad[mesh.neighbour[:ni]]
+    w = mesh.weight[:ni].reshape((-1,) + (1,) * (phi.ndim - 1))
+    return w * phi[mesh.owner[:ni]] + (1.0 - w) * phi[mesh.neighbour[:ni]]
 
 
 def interpolate_corrected(mesh: FVMesh, phi: np.ndarray, grad: np.ndarray) -> np.ndarray:

@@ -3,6 +3,8 @@
 Discretisation per cell ``P`` (steady, per unit depth, SI units):
 ``sum_f F_f u_f - sum_f mu grad(u)_f·S_f = -grad(p)_P V_P``, with
 
+The internal-face convection–diffusion terms are the shared stencil of :mod:`solver.assembly`:
+
 * implicit (matrix): first-order upwind convection and the orthogonal part of diffusion
   ``mu diff_coeff (u_N - u_P)``;
 * explicit (source): deferred correction ``-F_f (u_f^HO - u_f^UD)`` with the linear-upwind face value
@@ -24,9 +26,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .assembly import deferred_correction, non_orthogonal_diffusion, scatter_face_sources, sum_per_cell, upwind_stencil
 from .boundary import FIXED, SYMMETRY, ZERO_GRADIENT, BoundaryData
 from .fvmesh import FVMesh
-from .gradient import face_gradient
+from .gradient import interpolate_linear
 from .linalg import FVPattern, LinearSystem
 
 
@@ -57,32 +60,24 @@ def momentum_system(mesh: FVMesh, pattern: FVPattern, bnd: BoundaryData, u: np.n
     values ``mu + mu_t`` (adds the explicit transpose stress); alpha: relaxation factor;
     body_force: ``(nc, 2)`` force per unit volume, N/m³ (explicit source), or None.
     """
-    ni, nc = mesh.n_internal, mesh.n_cells
-    o, n = mesh.owner[:ni], mesh.neighbour[:ni]
-    F = flux[:ni]
+    ni = mesh.n_internal
     variable = np.ndim(mu) > 0
     mu_i, mu_b = (mu[:ni], mu[ni:]) if variable else (mu, mu)
-    D = mu_i * mesh.diff_coeff[:ni]
     # implicit: upwind convection + orthogonal diffusion (internal faces)
-    upper = np.minimum(F, 0.0) - D
-    lower = -np.maximum(F, 0.0) - D
-    diag = np.bincount(o, np.maximum(F, 0.0) + D, nc) + np.bincount(n, np.maximum(-F, 0.0) + D, nc)
+    st = upwind_stencil(mesh, flux, mu_i)
+    diag, upper, lower = st.diag, st.upper, st.lower
     # explicit: pressure gradient, deferred correction, non-orthogonal diffusion (internal faces)
     src = -grad_p * mesh.volume[:, None]
     if body_force is not None:
         src = src + body_force * mesh.volume[:, None]
-    xf = mesh.face_centre[:ni]
-    r_up = np.where((F >= 0)[:, None], xf - mesh.centroid[o], xf - mesh.centroid[n])
-    g_up = np.where((F >= 0)[:, None, None], grad_u_ho[o], grad_u_ho[n])
-    face = F[:, None] * np.einsum("fcd,fd->fc", g_up, r_up)      # F (u_HO - u_UD)
-    g_f = face_gradient(mesh, grad_u)
+    face = deferred_correction(mesh, flux, grad_u_ho)            # F (u_HO - u_UD)
     if variable:
+        g_f = interpolate_linear(mesh, grad_u)
         face -= mu_i[:, None] * (np.einsum("fcd,fd->fc", g_f, mesh.t_vec[:ni])
                                  + np.einsum("fdc,fd->fc", g_f, mesh.sf[:ni]))
     else:
-        face -= mu * np.einsum("fcd,fd->fc", g_f, mesh.t_vec[:ni])
-    src -= _scatter(o, face, nc)
-    src += _scatter(n, face, nc)
+        face -= non_orthogonal_diffusion(mesh, mu, grad_u)
+    src = scatter_face_sources(mesh, src, face)
     # boundary faces
     diag_b, src_b, sym_diag = _boundary(mesh, bnd, u, u_b, flux[ni:], grad_u, mu_b)
     diag = diag + diag_b
@@ -96,11 +91,6 @@ def momentum_system(mesh: FVMesh, pattern: FVPattern, bnd: BoundaryData, u: np.n
         sys.append((LinearSystem(pattern.matrix(d, upper, lower), b, u[:, c].copy()), d))
     a_p = 0.5 * (sys[0][1] + sys[1][1])
     return MomentumSystem(sys[0][0], sys[1][0], a_p, h1)
-
-
-def _scatter(cells: np.ndarray, values: np.ndarray, nc: int) -> np.ndarray:
-    """Sum ``values (k, 2)`` into ``(nc, 2)`` by cell."""
-    return np.column_stack([np.bincount(cells, values[:, 0], nc), np.bincount(cells, values[:, 1], nc)])
 
 
 def _boundary(mesh, bnd, u, u_b, Fb, grad_u, mu):
@@ -126,4 +116,4 @@ def _boundary(mesh, bnd, u, u_b, Fb, grad_u, mu):
     src_f[:, 0] -= cross * u[o, 1]
     src_f[:, 1] -= cross * u[o, 0]
     sym_d = Dn[:, None] * nrm**2
-    return np.bincount(o, diag_f, nc), _scatter(o, src_f, nc), _scatter(o, sym_d, nc)
+    return np.bincount(o, diag_f, nc), sum_per_cell(o, src_f, nc), sum_per_cell(o, sym_d, nc)

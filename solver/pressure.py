@@ -19,14 +19,8 @@ import numpy as np
 
 from .boundary import FIXED, ZERO_GRADIENT, BoundaryData
 from .fvmesh import FVMesh
-from .gradient import boundary_face_curvature, face_average, face_gradient, interpolate_corrected
+from .gradient import boundary_face_curvature, face_average, interpolate_corrected, interpolate_linear
 from .linalg import FVPattern, LinearSystem
-
-
-def interpolate(mesh: FVMesh, phi: np.ndarray) -> np.ndarray:
-    """Linear interpolation of cell values ``(nc, ...)`` to the internal faces ``(ni, ...)``."""
-    return face_gradient(mesh, phi)
-
 
 #: Cap of the quadratic correction of the face velocity, as a fraction of the linear variation
 #: ``|d| |grad u|`` across the face (:func:`face_velocity`).
@@ -112,8 +106,8 @@ def rhie_chow_flux(mesh: FVMesh, bnd: BoundaryData, u: np.ndarray, u_b: np.ndarr
     ni = mesh.n_internal
     o, n = mesh.owner[:ni], mesh.neighbour[:ni]
     e = mesh.sf - mesh.t_vec
-    dbar = interpolate(mesh, r_au)
-    gbar = interpolate(mesh, grad_p)
+    dbar = interpolate_linear(mesh, r_au)
+    gbar = interpolate_linear(mesh, grad_p)
     fi = rho * (np.einsum("ij,ij->i", face_velocity(mesh, u, u_b, grad_u), mesh.sf[:ni])
                 - dbar * (mesh.diff_coeff[:ni] * (p[n] - p[o]) - np.einsum("ij,ij->i", gbar, e[:ni])))
     ob = mesh.owner[ni:]
@@ -156,7 +150,7 @@ def pressure_correction_system(mesh: FVMesh, pattern: FVPattern, bnd: BoundaryDa
     """
     ni, nc = mesh.n_internal, mesh.n_cells
     o, n = mesh.owner[:ni], mesh.neighbour[:ni]
-    ci = rho * interpolate(mesh, r_atu) * mesh.diff_coeff[:ni]
+    ci = rho * interpolate_linear(mesh, r_atu) * mesh.diff_coeff[:ni]
     ob = mesh.owner[ni:]
     cb = np.where(bnd.p_fixed, rho * r_atu[ob] * mesh.diff_coeff[ni:], 0.0)
     diag = np.bincount(o, ci, nc) + np.bincount(n, ci, nc) + np.bincount(ob, cb, nc)

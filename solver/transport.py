@@ -4,6 +4,8 @@ Per cell ``P`` (steady, per unit depth)::
 
     sum_f F_f phi_f - sum_f Gamma_f grad(phi)_f·S_f = (su - sp phi_P) V_P
 
+Internal faces use the shared convection–diffusion stencil of :mod:`solver.assembly`:
+
 * implicit (matrix): first-order upwind convection, orthogonal diffusion ``Gamma_f diff_coeff (phi_N -
   phi_P)``, the implicit source ``sp >= 0`` on the diagonal (destruction, OpenFOAM's ``fvm::Sp``);
 * explicit (right-hand side): linear-upwind deferred correction ``-F_f psi grad(phi)_U·(x_f - x_U)`` (the
@@ -23,8 +25,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from .assembly import deferred_correction, non_orthogonal_diffusion, scatter_face_sources, upwind_stencil
 from .fvmesh import FVMesh
-from .gradient import face_gradient
 from .linalg import FVPattern, LinearSystem
 
 
@@ -43,20 +45,13 @@ def scalar_system(mesh: FVMesh, pattern: FVPattern, phi: np.ndarray, phi_b: np.n
     """
     ni, nc = mesh.n_internal, mesh.n_cells
     o, n = mesh.owner[:ni], mesh.neighbour[:ni]
-    F = flux[:ni]
-    D = gamma[:ni] * mesh.diff_coeff[:ni]
-    upper = np.minimum(F, 0.0) - D
-    lower = -np.maximum(F, 0.0) - D
-    diag = np.bincount(o, np.maximum(F, 0.0) + D, nc) + np.bincount(n, np.maximum(-F, 0.0) + D, nc)
+    st = upwind_stencil(mesh, flux, gamma[:ni])
+    diag, upper, lower = st.diag, st.upper, st.lower
     src = su * mesh.volume
     diag += sp * mesh.volume
-    xf = mesh.face_centre[:ni]
-    r_up = np.where((F >= 0)[:, None], xf - mesh.centroid[o], xf - mesh.centroid[n])
-    g_up = np.where((F >= 0)[:, None], grad_ho[o], grad_ho[n])
-    face = F * np.einsum("fd,fd->f", g_up, r_up)
-    face -= gamma[:ni] * np.einsum("fd,fd->f", face_gradient(mesh, grad), mesh.t_vec[:ni])
-    src -= np.bincount(o, face, nc)
-    src += np.bincount(n, face, nc)
+    face = deferred_correction(mesh, flux, grad_ho)
+    face -= non_orthogonal_diffusion(mesh, gamma[:ni], grad)
+    src = scatter_face_sources(mesh, src, face)
     # boundary faces
     ob = mesh.owner[ni:]
     Fb = flux[ni:]

@@ -45,7 +45,7 @@ def wall_distance(mesh: FVMesh, faces: np.ndarray, points: np.ndarray | None = N
 
     Example
     -------
-    >>> from solver.meshes import square_mesh
+    >>> from solver.validation.meshes import square_mesh
     >>> m = square_mesh(4, triangles="none")
     >>> d = wall_distance(m, m.boundary["bottom"])
     >>> bool(np.allclose(d, m.centroid[:, 1]))

@@ -20,8 +20,8 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from .pressure import predicted_velocity_flux
+from .problem import FlowState, Problem, initial_state
 from .results import FlowResults
-from .steady import FlowState, Problem, initial_state
 
 
 def mapped_state(problem: Problem, source: FlowResults) -> FlowState:

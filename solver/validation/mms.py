@@ -16,20 +16,24 @@ that the cell shapes, and with them the constants of the truncation error, are t
 Independently generated meshes of sizes 1/n change their irregularity from level to level, and observed
 orders from three of them scatter by ±0.3.
 
-    python -m solver.mms            # prints errors and observed orders on 3 triangle meshes
+    millfoil validate mms --level medium     # errors and observed orders on 3 triangle meshes
+
+Other refinements, viscosities and the union-jack meshes through the API (formerly ``python -m solver.mms
+--refinements --mu --mesh``): ``[run_level(r, mu=0.1, kind="structured") for r in (0, 1, 2)]`` and
+:func:`observed_order`.
 """
 
 from __future__ import annotations
 
-import argparse
-import sys
+import time
 from dataclasses import dataclass
 
 import numpy as np
 
-from .linalg import SolverSettings
-from .meshes import square_mesh
-from .steady import Fluid, Problem, SimpleSettings, solve_steady
+from .. import Fluid, Problem, SimpleSettings, solve_steady
+from ..linalg import SolverSettings
+from .meshes import gmsh_square, square_mesh
+from .report import Comparison, ValidationReport
 
 PI = np.pi
 
@@ -80,8 +84,6 @@ def mms_mesh(refinements: int, kind: str = "gmsh", distort: float = 0.25):
     ``"structured"``: ``n x n`` quads (``n = 8 * 2**refinements``) split into triangles, interior nodes
     displaced randomly by ``distort`` of the spacing."""
     if kind == "gmsh":
-        from .gmsh_meshes import gmsh_square
-
         return gmsh_square(BASE_SIZE, refine=refinements)
     n = round(1.0 / BASE_SIZE) * 2**refinements
     return square_mesh(n, triangles="all", distort=distort, seed=n)
@@ -92,7 +94,8 @@ def run_level(refinements: int, mu: float = 0.1, rho: float = 1.0, kind: str = "
     mesh = mms_mesh(refinements, kind)
     bc = {g: "wall" for g in mesh.group_names}
     problem = Problem.create(mesh, bc, Fluid(rho, mu), body_force(mesh.centroid, rho, mu))
-    settings = SimpleSettings(alpha_u=0.9, tol=1e-9, max_iter=4000, monitor_tol=1e-9, limiter="none",
+    settings = SimpleSettings(algorithm="simplec", alpha_p=1.0, stall_tol=None,
+                              alpha_u=0.9, tol=1e-9, max_iter=4000, monitor_tol=1e-9, limiter="none",
                               pressure_solver=SolverSettings("amg", 1e-3, 100))
     res = solve_steady(problem, settings)
     ue, pe = exact(mesh.centroid)
@@ -108,22 +111,29 @@ def observed_order(h, e) -> float:
     return float(np.polyfit(np.log(h), np.log(e), 1)[0])
 
 
-def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description="MMS observed order of accuracy")
-    ap.add_argument("--refinements", type=int, nargs="+", default=[1, 2, 3],
-                    help="uniform refinements of the 162-cell base mesh (default 1 2 3: 648 to 10 368 cells)")
-    ap.add_argument("--mu", type=float, default=0.1)
-    ap.add_argument("--mesh", default="gmsh", choices=("gmsh", "structured"))
-    a = ap.parse_args(argv)
-    errs = [run_level(r, a.mu, kind=a.mesh) for r in a.refinements]
-    for e in errs:
-        print(f"cells {e.n_cells:7d}  h {e.h:.5f}  |u - u_ex|_2 {e.velocity:.4e}  |p - p_ex|_2 {e.pressure:.4e}"
-              f"  {e.status}")
+# ---------------------------------------------------------------------------------------- validation
+#: MMS refinement levels (:func:`run_level`: uniform refinements of one 170-cell gmsh triangle
+#: mesh) and the allowed shortfall of the observed (velocity, pressure) order from 2. coarse (170 / 680 /
+#: 2 720 cells, ~10 s): measured 2.28 / 2.46; medium (680 / 2 720 / 10 880 cells): 1.98 / 1.88; fine: all
+#: four. Every level asks the issue's >= 1.8 velocity, >= 1.5 pressure; a first-order scheme gives ~1.
+MMS_LEVELS = {"coarse": ((0, 1, 2), (0.2, 0.5)), "medium": ((1, 2, 3), (0.2, 0.5)),
+              "fine": ((0, 1, 2, 3), (0.2, 0.5))}
+
+
+def validate_mms(level: str) -> ValidationReport:
+    """Manufactured steady Navier–Stokes solution on successively refined unstructured triangle meshes:
+    observed order of the L2 errors of velocity and pressure."""
+    t0 = time.perf_counter()
+    ns, (tol_u, tol_p) = MMS_LEVELS[level]
+    errs = [run_level(r) for r in ns]
     h = [e.h for e in errs]
-    ou, op = observed_order(h, [e.velocity for e in errs]), observed_order(h, [e.pressure for e in errs])
-    print(f"observed order: velocity {ou:.2f} (required 1.8), pressure {op:.2f} (required 1.5)")
-    return 0 if ou >= 1.8 and op >= 1.5 else 1
-
-
-if __name__ == "__main__":
-    sys.exit(main())
+    order_u = observed_order(h, [e.velocity for e in errs])
+    order_p = observed_order(h, [e.pressure for e in errs])
+    comparisons = (
+        Comparison.of("velocity L2 observed order (error: shortfall from 2)", order_u, 2.0, 2.0 - order_u, tol_u),
+        Comparison.of("pressure L2 observed order (error: shortfall from 2)", order_p, 2.0, 2.0 - order_p, tol_p),
+    )
+    details = dict(meshes=[dict(refinements=n, cells=e.n_cells, h=e.h, velocity_l2=e.velocity, pressure_l2=e.pressure,
+                                status=e.status) for n, e in zip(ns, errs, strict=True)])
+    return ValidationReport("mms", level, validate_mms.__doc__.split("\n")[0], comparisons,
+                            time.perf_counter() - t0, details)

@@ -1,13 +1,14 @@
 """NASA TMR 2D zero-pressure-gradient flat plate with SST (coarse level, CI size) against the TMR data.
 
-Issue tolerances on finer meshes (not run here): ``python -m solver.flatplate --level medium`` / ``fine``
+Issue tolerances on finer meshes (not run here): ``millfoil validate flatplate --level medium`` / ``fine``
 (c_f(0.97) within 2 %, C_D within 3 %), and ``run_case('flatplate', 'fine')``.
 """
 
 import numpy as np
 import pytest
 
-from solver.flatplate import (
+from solver.validation import CASES, run_case
+from solver.validation.flatplate import (
     LEVELS,
     REFERENCE,
     X_CF,
@@ -17,7 +18,6 @@ from solver.flatplate import (
     load_reference_cf,
     run_flatplate,
 )
-from solver.validation import CASES, run_case
 
 
 def test_geometric_spacing():
@@ -38,7 +38,7 @@ def test_mesh_geometry_and_groups():
 
 
 def test_reference_files_keep_their_source_header():
-    from solver.flatplate import REFERENCE_DIR
+    from solver.validation.flatplate import REFERENCE_DIR
     for name in ("tmr_2dzp_sst_cd_convergence.csv", "tmr_2dzp_sst_cf_x0p97_convergence.csv",
                  "tmr_2dzp_sst_cf_plate_finest_545x385.csv"):
         assert (REFERENCE_DIR / name).read_text().startswith("# turbmodels.larc.nasa.gov")

@@ -1,14 +1,14 @@
-"""The reference data shipped in solver/reference/ is the published data, unchanged."""
+"""The reference data shipped in solver/validation/reference/ is the published data, unchanged."""
 
 import csv
 from pathlib import Path
 
 import pytest
 
-from solver.cylinder import REFERENCE
+from solver.validation.cylinder import REFERENCE
 
-PACKAGED = Path(__file__).parents[1] / "solver" / "reference"
-SHARED = Path(__file__).parents[2] / "shared" / "reference"
+PACKAGED = Path(__file__).parents[2] / "solver" / "validation" / "reference"
+SHARED = Path(__file__).parents[3] / "shared" / "reference"
 
 
 @pytest.mark.skipif(not SHARED.is_dir(), reason="the project's shared/reference folder is not beside the checkout")

@@ -8,7 +8,7 @@ import scipy.sparse as sp
 from solver.fvmesh import MeshError, build_fvmesh, from_msh
 from solver.gradient import LIMITERS, limited_gradient, ls_gradient, neighbour_bounds
 from solver.linalg import FVPattern
-from solver.meshes import square_mesh
+from solver.validation.meshes import square_mesh
 
 
 @pytest.fixture(scope="module", params=["checker", "right_half", "all"])
@@ -153,7 +153,7 @@ def test_msh_roundtrip(tmp_path):
 
 def test_gmsh_mixed_mesh_gradient_exact():
     pytest.importorskip("gmsh")
-    from solver.gmsh_meshes import gmsh_square
+    from solver.validation.meshes import gmsh_square
 
     m = gmsh_square(0.1, quads="left_half")
     assert set(m.cells) == {"quad", "triangle"}

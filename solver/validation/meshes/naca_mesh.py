@@ -48,7 +48,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .fvmesh import FVMesh, build_fvmesh
+from ...fvmesh import FVMesh, build_fvmesh
 
 #: TMR NACA 0012 coefficients (closed trailing edge at x = 1).
 SCALE = 0.594689181

@@ -6,7 +6,7 @@ import contextlib
 
 import numpy as np
 
-from .fvmesh import FVMesh, build_fvmesh
+from ...fvmesh import FVMesh, build_fvmesh
 
 
 def gmsh_square(h: float, *, quads: str | bool = False, size: float = 1.0, algorithm: int = 6,
@@ -82,7 +82,7 @@ def _extract(gmsh) -> FVMesh:
             _, _, nodes = gmsh.model.mesh.getElements(1, ent)
             edges.append(index[nodes[0].astype(np.int64)].reshape(-1, 2))
         boundary[name] = np.concatenate(edges)
-    from .fvmesh import _ccw
+    from ...fvmesh import _ccw
     cells = {k: _ccw(pts, v) for k, v in cells.items()}
     used = np.unique(np.concatenate([c.ravel() for c in cells.values()]))
     new = np.full(len(pts), -1, dtype=np.int64)

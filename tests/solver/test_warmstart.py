@@ -6,8 +6,8 @@ import pytest
 pytest.importorskip("gmsh")
 
 from solver import Problem, solve_steady  # noqa: E402
-from solver.cylinder import BOUNDARY_CONDITIONS, FLUID, LEVELS, coefficients, cylinder_settings  # noqa: E402
-from solver.gmsh_meshes import dfg_cylinder  # noqa: E402
+from solver.validation.cylinder import BOUNDARY_CONDITIONS, FLUID, LEVELS, coefficients, cylinder_settings  # noqa: E402
+from solver.validation.meshes import dfg_cylinder  # noqa: E402
 from solver.warmstart import mapped_state  # noqa: E402
 
 

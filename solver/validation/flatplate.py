@@ -10,27 +10,30 @@ displacement flow leaves through the top). Fluid rho = 1, U = 1, mu = 1/5e6 (Re 
 Mesh (:func:`flatplate_mesh`): structured quads, numpy only; geometric stretching from the leading edge
 in x (both sides) and from the wall in y, the first wall spacing chosen for a first-cell-centroid y+ < 1.
 
-Compared with the TMR SST results (CFL3D / FUN3D, SST-V, finest 545x385 grid; ``solver/reference/
-tmr_2dzp_sst_*.csv``): skin friction ``c_f = tau_w / (0.5 rho U²)`` at x = 0.97 (0.00269) and the plate
+Compared with the TMR SST results (CFL3D / FUN3D, SST-V, finest 545x385 grid; ``solver/validation/
+reference/tmr_2dzp_sst_*.csv``): skin friction ``c_f = tau_w / (0.5 rho U²)`` at x = 0.97 (0.00269) and the plate
 drag coefficient ``C_D = D / (0.5 rho U² L)`` with L = 2 (0.00285), per the TMR page.
 
-    python -m solver.flatplate --level medium          # prints the comparison
+    millfoil validate flatplate --level medium          # prints the comparison
+
+Wall treatment, first spacing and progress through the API (formerly ``python -m solver.flatplate --wall
+--dy-wall --every``): ``run_flatplate("coarse", "automatic", mesh_overrides={"dy_wall": 1e-4},
+callback=...)``.
 """
 
 from __future__ import annotations
 
-import argparse
-import sys
 import time
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from .fvmesh import FVMesh, build_fvmesh
-from .linalg import SolverSettings
-from .steady import Fluid, Problem, SimpleSettings, initial_state, solve_steady
-from .turbulence import SST, TMR_FREESTREAM
+from .. import Fluid, Problem, SimpleSettings, initial_state, solve_steady
+from ..fvmesh import FVMesh, build_fvmesh
+from ..linalg import SolverSettings
+from ..turbulence import SST, TMR_FREESTREAM
+from .report import Comparison, ValidationReport, run_summary
 
 REFERENCE_DIR = Path(__file__).resolve().parent / "reference"
 RE_PER_LENGTH = 5e6
@@ -112,8 +115,9 @@ def boundary_conditions(intensity: float = TMR_FREESTREAM["intensity"],
 
 
 def flatplate_settings(**overrides) -> SimpleSettings:
-    """Solver settings for the flat plate (plate drag monitored for convergence)."""
-    base = dict(alpha_u=0.85, max_iter=4000, tol=1e-5, monitor_tol=1e-4, monitor_window=50,
+    """Solver settings for the flat plate (SIMPLEC, ``alpha_p`` = 1; plate drag monitored for convergence)."""
+    base = dict(algorithm="simplec", alpha_p=1.0, stall_tol=None,
+                alpha_u=0.85, max_iter=4000, tol=1e-5, monitor_tol=1e-4, monitor_window=50,
                 monitor_groups=("plate",), momentum_solver=SolverSettings("gauss_seidel", 0.1, 8),
                 pressure_solver=SolverSettings("direct"))
     base.update(overrides)
@@ -174,30 +178,35 @@ def run_flatplate(level: str = "coarse", wall_treatment: str = "low_re", turbule
     return res, coefficients(res)
 
 
-def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--level", default="coarse", choices=list(LEVELS))
-    ap.add_argument("--wall", default="low_re", choices=["low_re", "automatic"])
-    ap.add_argument("--dy-wall", type=float, default=None, help="override the first wall spacing (m)")
-    ap.add_argument("--every", type=int, default=0, help="print residuals every N iterations")
-    a = ap.parse_args(argv)
-    over = {} if a.dy_wall is None else {"dy_wall": a.dy_wall}
+# ---------------------------------------------------------------------------------------- validation
+#: Flat-plate tolerances per level, % of the TMR value (c_f at x = 0.97, plate C_D). coarse (3 840 cells,
+#: y+ < 0.6): measured 2.1 % / 2.2 % low with SST (CFL3D on its 3 264-cell grid: 2.4 % / 2.3 % low); without
+#: a turbulence model (laminar) 89 % / 85 % low, and with F1 = 0 (k-epsilon branch everywhere) 22 % / 23 %
+#: high, so 5 % catches both. With F1 = 1 everywhere (the k-omega branch) c_f is 0.9 % high: on this case
+#: (zero pressure gradient, TMR freestream) the coarse level cannot separate it (the f1 unit tests do).
+#: medium (11 520 cells, measured 0.8 % / 0.9 %) and fine (28 672 cells, 0.2 % / 0.3 %): the issue's 2 % (c_f)
+#: and 3 % (C_D).
+FLATPLATE_TOLERANCES = {"coarse": {"cf": 5.0, "C_D": 5.0}, "medium": {"cf": 2.0, "C_D": 3.0},
+                        "fine": {"cf": 2.0, "C_D": 3.0}}
 
-    def cb(it, res, s):
-        if a.every and it % a.every == 0:
-            print(it, " ".join(f"{k} {v:.2e}" for k, v in res.items()), flush=True)
 
+def validate_flatplate(level: str) -> ValidationReport:
+    """NASA TMR zero-pressure-gradient flat plate (SST, Re = 5e6/m): c_f(0.97) and plate C_D vs TMR.
+
+    SST-2003 with the ``low_re`` wall treatment (y+ < 1); reference: TMR SST results (CFL3D, finest grid).
+    """
     t0 = time.perf_counter()
-    res, c = run_flatplate(a.level, a.wall, mesh_overrides=over, callback=cb)
-    err = c.errors()
-    print(f"{res.mesh.n_cells} cells; {res.summary()}")
-    ms = res.wall_time / max(res.iterations, 1) * 1e3
-    print(f"time per iteration {ms:.1f} ms; total {time.perf_counter() - t0:.1f} s")
-    print(f"first-cell y+ on the plate (x > 0.05): max {c.y_plus[c.x > 0.05].max():.2f}")
-    print(f"cf(x=0.97) {c.cf_097:.6f}  reference {REFERENCE['cf_x0.97']}  error {100 * err['cf_x0.97']:.2f} %")
-    print(f"C_D        {c.cd:.6f}  reference {REFERENCE['C_D']}  error {100 * err['C_D']:.2f} %")
-    return 0 if all(err[k] <= TOLERANCE[k] for k in err) else 1
-
-
-if __name__ == "__main__":
-    sys.exit(main())
+    res, c = run_flatplate(level)
+    tol = FLATPLATE_TOLERANCES[level]
+    ref, err = REFERENCE, c.errors()
+    comparisons = (
+        Comparison.of("c_f at x = 0.97 (error: % of reference)", c.cf_097, ref["cf_x0.97"],
+                      100 * err["cf_x0.97"], tol["cf"]),
+        Comparison.of("plate C_D, L = 2 (error: % of reference)", c.cd, ref["C_D"], 100 * err["C_D"],
+                      tol["C_D"]),
+    )
+    details = dict(run_summary(res), mesh=dict(LEVELS[level]), wall_treatment="low_re",
+                   y_plus_max=float(c.y_plus[c.x > 0.05].max()),
+                   ms_per_iteration=round(1e3 * res.wall_time / max(res.iterations, 1), 2))
+    return ValidationReport("flatplate", level, validate_flatplate.__doc__.split("\n")[0], comparisons,
+                            time.perf_counter() - t0, details)

@@ -1,6 +1,6 @@
 """NASA TMR NACA 0012 case: C-mesh validity and geometry, reference loading, a coarse laminar run that
 must be symmetric at alpha = 0, and the k-omega SST run at alpha = 10 deg, Re = 6e6 on the coarse C-mesh
-against CFL3D (≈ 3.5 min). Finer levels and alpha = 0: ``python -m solver.naca0012 --alpha A --level L``
+against CFL3D (≈ 3.5 min). Finer levels and alpha = 0: ``millfoil validate naca0012 --alpha A --level L``
 (docs/naca0012.md)."""
 
 import dataclasses
@@ -8,7 +8,7 @@ import dataclasses
 import numpy as np
 import pytest
 
-from solver.naca_mesh import (
+from solver.validation.meshes.naca_mesh import (
     LEVELS,
     CMeshSpec,
     naca0012_cmesh,
@@ -86,7 +86,7 @@ def test_mesh_topology(coarse):
 
 
 def test_reference_files():
-    from solver.naca0012 import load_clcd, load_cp, tmr_freestream
+    from solver.validation.naca0012 import load_clcd, load_cp, tmr_freestream
 
     ref = load_clcd()
     assert set(ref) == {0.0, 10.0} and ref[10.0][0] == pytest.approx(1.078, abs=1e-3)
@@ -101,7 +101,7 @@ def test_reference_files():
 def test_laminar_symmetric_alpha0():
     """Laminar run at Re = 1000, alpha = 0 on a small mesh of the same generator (2 592 cells, 200
     iterations): C_L ~ 0 and C_p equal on both surfaces (mirror-symmetric mesh); C_D with both parts."""
-    from solver.naca0012 import Convergence, run_naca0012
+    from solver.validation.naca0012 import Convergence, run_naca0012
 
     spec = CMeshSpec(n_side=24, n_wake=12, ds_le=5e-3, ds_te=1e-2, first_cell=2e-3, growth=1.2, switch=0.02,
                      far_growth=1.4)
@@ -118,7 +118,7 @@ def test_laminar_symmetric_alpha0():
 def test_alpha_rotation_gives_lift():
     """The freestream is rotated, not the mesh: at alpha = 5 deg a short laminar run gives C_L > 0 and
     the inflow/outflow split follows U∞."""
-    from solver.naca0012 import Convergence, run_naca0012
+    from solver.validation.naca0012 import Convergence, run_naca0012
 
     spec = CMeshSpec(n_side=24, n_wake=12, ds_le=5e-3, ds_te=1e-2, first_cell=2e-3, growth=1.2, switch=0.02,
                      far_growth=1.4)
@@ -133,7 +133,7 @@ def test_alpha_rotation_gives_lift():
 def test_vortex_velocity_circulation():
     """Far-field inflow of the point-vortex correction: circulation -½ C_L (clockwise) on any circle
     around the quarter chord, freestream far away."""
-    from solver.naca0012 import freestream, vortex_velocity
+    from solver.validation.naca0012 import freestream, vortex_velocity
 
     th = np.linspace(0, 2 * np.pi, 4001)[:-1]
     r = 50.0
@@ -147,7 +147,7 @@ def test_vortex_velocity_circulation():
 
 def test_restart_state_roundtrip(tmp_path):
     """A run continued from its state file reproduces the fields and counts iterations across runs."""
-    from solver.naca0012 import Convergence, run_naca0012
+    from solver.validation.naca0012 import Convergence, run_naca0012
 
     spec = CMeshSpec(n_side=16, n_wake=8, ds_le=1e-2, ds_te=2e-2, first_cell=5e-3, growth=1.2, switch=0.02,
                      far_growth=1.5)

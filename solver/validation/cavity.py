@@ -5,23 +5,25 @@ mu = 1/Re. Compared: u on the vertical centreline x = 0.5 and v on the horizonta
 Ghia's tabulated interior points (the wall points, where the values are boundary conditions, are left
 out); error measure: RMS over the points of ``computed - reference``, as a fraction of the lid speed.
 
-    python -m solver.cavity --re 100 --n 100          # prints the comparison table
-    python -m solver.cavity --re 1000 --n 128 --json
+    millfoil validate cavity --level fine      # Re 100 and 1000 on the n = 100 gmsh mesh
+
+Other meshes and Reynolds numbers through the API (formerly ``python -m solver.cavity --re --n --mesh
+--triangles --distort --json``): ``res, cmp = run_cavity(1000, 128, "structured", "checker", 0.2)``;
+``table(cmp, 1000)`` gives the per-point records.
 """
 
 from __future__ import annotations
 
-import argparse
-import json
-import sys
+import time
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from .linalg import SolverSettings
-from .meshes import square_mesh
-from .steady import Fluid, Problem, SimpleSettings, solve_steady
+from .. import Fluid, Problem, SimpleSettings, solve_steady
+from ..linalg import SolverSettings
+from .meshes import gmsh_square, square_mesh
+from .report import Comparison, ValidationReport, run_summary
 
 #: Location of the published reference tables.
 # Published reference tables shipped with the package (copied verbatim from the project's shared/reference).
@@ -50,25 +52,24 @@ def cavity_mesh(n: int, kind: str = "gmsh_mixed", triangles: str = "right_half",
     (``1.5 n²`` cells for ``right_half``).
     """
     if kind.startswith("gmsh"):
-        from .gmsh_meshes import gmsh_square
-
         return gmsh_square(1.0 / n, quads="left_half" if kind == "gmsh_mixed" else "none")
     return square_mesh(n, strength=strength, triangles=triangles, distort=distort)
 
 
 def cavity_settings(re: float, **overrides) -> SimpleSettings:
-    """Default solver settings for the cavity at Reynolds number ``re``.
+    """Default solver settings for the cavity at Reynolds number ``re`` (SIMPLEC, ``alpha_p`` = 1).
 
     Measured (11 078-cell mixed mesh, Re 100): alpha_u 0.95 / 8 Gauss–Seidel sweeps 705 iterations;
     0.98 / 16 sweeps 386. Re 1000 (7 137 cells): 0.9 / 8 461 iterations; 0.95 / 16 254."""
-    base = dict(alpha_u=0.98 if re <= 200 else 0.95, max_iter=4000, tol=1e-6, monitor_tol=1e-6,
+    base = dict(algorithm="simplec", alpha_u=0.98 if re <= 200 else 0.95, alpha_p=1.0, stall_tol=None,
+                max_iter=4000, tol=1e-6, monitor_tol=1e-6,
                 momentum_solver=SolverSettings("gauss_seidel", 0.1, 16))
     base.update(overrides)
     return SimpleSettings(**base)
 
 
 @dataclass(frozen=True)
-class Comparison:
+class CentrelineComparison:
     """Computed vs reference centreline values; ``rms_u``, ``rms_v`` as fractions of the lid speed."""
 
     coord_u: np.ndarray
@@ -92,14 +93,14 @@ class Comparison:
         return float(np.sqrt(np.mean(np.concatenate([self.u - self.u_ref, self.v - self.v_ref]) ** 2)))
 
 
-def compare(results, re: int) -> Comparison:
+def compare(results, re: int) -> CentrelineComparison:
     """Sample the solution at Ghia's interior centreline points."""
     gu, gv = load_ghia(re)
     gu = gu[(gu[:, 0] > 0) & (gu[:, 0] < 1)]
     gv = gv[(gv[:, 0] > 0) & (gv[:, 0] < 1)]
     u = results.sample(np.column_stack([np.full(len(gu), 0.5), gu[:, 0]]))[:, 0]
     v = results.sample(np.column_stack([gv[:, 0], np.full(len(gv), 0.5)]))[:, 1]
-    return Comparison(gu[:, 0], u, gu[:, 1], gv[:, 0], v, gv[:, 1])
+    return CentrelineComparison(gu[:, 0], u, gu[:, 1], gv[:, 0], v, gv[:, 1])
 
 
 def run_cavity(re: int = 100, n: int = 100, kind: str = "gmsh_mixed", triangles: str = "right_half",
@@ -112,7 +113,7 @@ def run_cavity(re: int = 100, n: int = 100, kind: str = "gmsh_mixed", triangles:
     return res, compare(res, re)
 
 
-def table(cmp: Comparison, re: int) -> list[dict]:
+def table(cmp: CentrelineComparison, re: int) -> list[dict]:
     """One record per compared quantity: name, computed, reference, error, tolerance, pass (tolerance
     and pass are None for the individual points; the criterion is the RMS over all of them)."""
     tol = TOLERANCE.get(re, 0.02)
@@ -126,31 +127,28 @@ def table(cmp: Comparison, re: int) -> list[dict]:
     return rows
 
 
-def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--re", type=int, default=100, choices=(100, 1000))
-    ap.add_argument("--n", type=int, default=100, help="cells per side of the base quad grid")
-    ap.add_argument("--mesh", default="gmsh_mixed", choices=("gmsh_mixed", "gmsh_tri", "structured"))
-    ap.add_argument("--triangles", default="right_half", choices=("none", "all", "right_half", "checker"),
-                    help="structured mesh only: which quads are split into triangles")
-    ap.add_argument("--distort", type=float, default=0.0)
-    ap.add_argument("--json", action="store_true")
-    a = ap.parse_args(argv)
-    res, cmp = run_cavity(a.re, a.n, a.mesh, a.triangles, a.distort)
-    rows = table(cmp, a.re)
-    if a.json:
-        print(json.dumps(rows, indent=1))
-    else:
-        print(f"lid-driven cavity Re = {a.re}, {res.mesh.n_cells} cells "
-              f"({', '.join(f'{len(c)} {k}s' for k, c in res.mesh.cells.items())}); {res.summary()}")
-        print(f"{'quantity':<30}{'computed':>11}{'Ghia 1982':>11}{'error':>10}")
-        for r in rows[:-1]:
-            print(f"{r['name']:<30}{r['computed']:>11.5f}{r['reference']:>11.5f}{r['error']:>10.5f}")
-        last = rows[-1]
-        print(f"RMS error / U_lid: u {cmp.rms_u:.4%}, v {cmp.rms_v:.4%}, both {cmp.rms:.4%} "
-              f"(tolerance {last['tolerance']:.0%}): {'PASS' if last['pass'] else 'FAIL'}")
-    return 0 if rows[-1]["pass"] and res.converged else 1
+# ---------------------------------------------------------------------------------------- validation
+#: Cavity runs per level: ``{Re: (n, RMS tolerance as a fraction of the lid speed)}`` on the mixed gmsh
+#: mesh (quads for x < 0.5, triangles for x > 0.5). coarse: n = 32 (1 813 cells); measured RMS 0.32 %
+#: with linear upwind, 0.63 % with first-order upwind, so 0.45 % fails a first-order convection scheme.
+#: medium: n = 64 (~7 100 cells), fine: n = 100 (17 415 cells, <= 20 000 as issue 4 asks), both with the
+#: issue's tolerances (1 % at Re 100, 2 % at Re 1000).
+CAVITY_LEVELS = {"coarse": {100: (32, 0.0045)},
+                 "medium": {100: (64, TOLERANCE[100]), 1000: (64, TOLERANCE[1000])},
+                 "fine": {100: (100, TOLERANCE[100]), 1000: (100, TOLERANCE[1000])}}
 
 
-if __name__ == "__main__":
-    sys.exit(main())
+def validate_cavity(level: str) -> ValidationReport:
+    """Lid-driven cavity vs Ghia, Ghia & Shin (1982): RMS of the centreline velocity errors (u on x = 0.5,
+    v on y = 0.5, Ghia's interior points) in % of the lid speed."""
+    t0 = time.perf_counter()
+    comparisons, details = [], {}
+    for re, (n, tol) in CAVITY_LEVELS[level].items():
+        res, cmp = run_cavity(re, n, "gmsh_mixed")
+        comparisons.append(Comparison.of(f"Re {re}: centreline u, v RMS error vs Ghia (% of lid speed)",
+                                         100 * cmp.rms, 0.0, 100 * cmp.rms, 100 * tol))
+        details[f"re{re}"] = dict(run_summary(res), rms_u_percent=100 * cmp.rms_u,
+                                  rms_v_percent=100 * cmp.rms_v, u_min=float(cmp.u.min()),
+                                  v_max=float(cmp.v.max()), v_min=float(cmp.v.min()))
+    return ValidationReport("cavity", level, validate_cavity.__doc__.split("\n")[0], tuple(comparisons),
+                            time.perf_counter() - t0, details)

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .fvmesh import FVMesh, build_fvmesh
+from ...fvmesh import FVMesh, build_fvmesh
 
 
 def clustered(n: int, strength: float = 0.0) -> np.ndarray:

@@ -1,7 +1,7 @@
 """NASA TMR 2D NACA 0012 validation case (turbmodels.larc.nasa.gov, "2D NACA 0012 Airfoil Validation").
 
 TMR airfoil with a closed (sharp) trailing edge, chord 1, on the structured C-mesh of
-:mod:`solver.naca_mesh` (far field >= 100 chords); Re = 6e6: rho = 1, U = 1, mu = 1/6e6; k-omega SST
+:mod:`solver.validation.meshes.naca_mesh` (far field >= 100 chords); Re = 6e6: rho = 1, U = 1, mu = 1/6e6; k-omega SST
 (:class:`solver.turbulence.SST`, ``low_re`` wall treatment; first cell 2e-6 / 1e-6 / 1e-6 chords, wall y+
 of the first centroid <= 0.72). The mesh is fixed and the freestream ``U∞ = (cos α, sin α)`` is rotated;
 the force on the airfoil (body axes) is projected on the drag (along U∞) and lift (normal) directions::
@@ -14,30 +14,37 @@ correction too), with the TMR freestream turbulence (k = 9e-9 a², omega = 1e-6 
 from the CFL3D file header: intensity 5.16e-4, nu_t/nu = 0.009); ``farfield_out`` pressure outlet p = 0.
 Start: potential flow (:func:`potential_start`); SIMPLE, alpha_u 0.7, alpha_p 0.3 (:func:`naca_settings`).
 
-Compared with CFL3D SST on the 897x257 grid (``solver/reference/tmr_naca0012_cfl3d_sst_*.csv``, copied
+Compared with CFL3D SST on the 897x257 grid (``solver/validation/reference/tmr_naca0012_cfl3d_sst_*.csv``, copied
 from the TMR files): C_L, C_D at α = 0° and 10° (issue tolerances: α = 0: |C_L| <= 0.005, C_D within 8 %;
 α = 10: C_L within 2 %, C_D within 8 %), and the RMS difference of C_p along the chord.
 
-    python -m solver.naca0012 --alpha 10 --level medium --verbose     # prints the comparison
-    python -m solver.naca0012 --alpha 0 --level coarse --laminar --re 2000   # harness check, no reference
+    millfoil validate naca0012 --alpha 10 --level medium     # prints the comparison
+
+Laminar harness checks, other Reynolds numbers, iteration caps, progress, restart files and wall-time
+limits through the API (formerly ``python -m solver.naca0012 --laminar --re --max-iter --verbose --state
+--max-seconds``)::
+
+    run_naca0012(0.0, "coarse", turbulent=False, reynolds=2000, convergence=Convergence(max_iter=3000),
+                 progress=print, state_file="a0.npz", max_seconds=3600)
 """
 
 from __future__ import annotations
 
-import argparse
 import dataclasses
-import json
 import re
-import sys
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from .linalg import SolverSettings
-from .naca_mesh import LEVELS, naca0012_cmesh, quality
-from .steady import Fluid, Problem, SimpleSettings, initial_state, solve_steady
+from .. import Fluid, Problem, SimpleSettings, initial_state, solve_steady
+from ..gradient import ls_gradient
+from ..linalg import SolverSettings
+from ..pressure import correct_flux, pressure_correction_system
+from ..turbulence import SST
+from .meshes.naca_mesh import naca0012_cmesh, quality
+from .report import Comparison, ValidationReport
 
 REFERENCE_DIR = Path(__file__).resolve().parent / "reference"
 CLCD_FILE = "tmr_naca0012_cfl3d_sst_clcd_fulldigits.csv"
@@ -119,7 +126,12 @@ def boundary_conditions(alpha_deg: float, turbulent: bool = True, c_l: float | N
     return {"wall": "wall", "farfield_in": inlet, "farfield_out": {"type": "pressure_outlet", "p": 0.0}}
 
 
-def potential_start(problem: Problem, u_inf, solver: SolverSettings = SolverSettings("amg", 1e-10, 500)):
+#: Linear solver of the potential-flow projection of :func:`potential_start` (converged tightly: the start
+#: must be divergence free).
+POTENTIAL_SOLVER = SolverSettings("amg", 1e-10, 500)
+
+
+def potential_start(problem: Problem, u_inf, solver: SolverSettings = POTENTIAL_SOLVER):
     """Initial state: the potential flow around the airfoil (slip at the wall) and its Bernoulli pressure.
 
     An impulsive start (uniform U∞ through the wall) leaves cells at the leading edge with a net inflow
@@ -128,9 +140,6 @@ def potential_start(problem: Problem, u_inf, solver: SolverSettings = SolverSett
     uniform flow with the solver's own pressure-correction operator (``D̃ = 1``) gives discretely
     divergence-free fluxes: ``F = F0 - grad_f phi``, ``u = U∞ - grad phi``, ``p = (|U∞|² - |u|²)/2``.
     """
-    from .gradient import ls_gradient
-    from .pressure import correct_flux, pressure_correction_system
-
     m, b, rho = problem.mesh, problem.bnd, problem.fluid.rho
     s = initial_state(problem, tuple(u_inf))
     pc = pressure_correction_system(m, problem.pattern, b, s.flux, np.ones(m.n_cells), rho)
@@ -148,11 +157,12 @@ def naca_settings(**overrides) -> SimpleSettings:
 
     SIMPLE with ``alpha_p = 0.3`` and a pressure-correction solve to 1e-3: with SIMPLEC (``alpha_p = 1``)
     and the default pressure tolerance 0.05 the coarse SST run diverges within 10 iterations. The
-    SIMPLEC coefficient ``V / (a_P/alpha_u - sum a_nb)`` of :mod:`solver.steady` turns negative where a
+    SIMPLEC coefficient ``V / (a_P/alpha_u - sum a_nb)`` of :mod:`solver.simple` turns negative where a
     cell's remaining mass imbalance (net inflow) exceeds ``(1/alpha_u - 1) a_P`` (measured: near the
     leading edge, and in the far-wake cells near the outflow plane); SIMPLE's ``V / a_P`` stays positive.
     """
-    base = dict(algorithm="simple", alpha_u=0.7, alpha_p=0.3, max_iter=100, tol=-1.0, monitor_groups=(),
+    base = dict(algorithm="simple", alpha_u=0.7, alpha_p=0.3, stall_tol=None, max_iter=100, tol=-1.0,
+                monitor_groups=(),
                 momentum_solver=SolverSettings("gauss_seidel", 0.1, 8),
                 pressure_solver=SolverSettings("amg", 1e-3, 200))
     base.update(overrides)
@@ -245,14 +255,15 @@ def run_naca0012(alpha_deg: float = 0.0, level: str = "coarse", *, reynolds: flo
                  convergence: Convergence = Convergence(), mesh_spec=None, callback=None,
                  progress=None, state_file=None, max_seconds: float | None = None,
                  vortex_correction: bool = True, startup: int = STARTUP_ITERATIONS) -> NacaResult:
-    """Solve the NACA 0012 at ``alpha_deg`` on the C-mesh of ``level`` (:data:`solver.naca_mesh.LEVELS`) or
-    ``mesh_spec`` (a :class:`solver.naca_mesh.CMeshSpec`).
+    """Solve the NACA 0012 at ``alpha_deg`` on the C-mesh of ``level``
+    (:data:`solver.validation.meshes.naca_mesh.LEVELS`) or ``mesh_spec``
+    (a :class:`solver.validation.meshes.naca_mesh.CMeshSpec`).
 
     ``turbulent``: k-omega SST (``turbulence`` or ``SST(wall_treatment="low_re")``) with the TMR freestream
     turbulence; ``False`` runs laminar (harness checks at low ``reynolds``). The SIMPLEC loop runs in chunks
     of ``convergence.chunk`` iterations (``settings``, :func:`naca_settings`) on one state until
     :class:`Convergence` holds; ``callback(iteration, residuals, state)`` as in
-    :func:`solver.steady.solve_steady` (chunk-local iteration numbers); ``progress(iterations, residuals,
+    :func:`solver.solve_steady` (chunk-local iteration numbers); ``progress(iterations, residuals,
     c_l, c_d)`` after each chunk. ``state_file`` (``.npz``): start from it when it exists, and write the
     state there after the run (restart of long runs); ``max_seconds``: stop after the chunk that passes
     this wall time (status ``not_converged``). ``vortex_correction``: after every chunk the inflow
@@ -265,8 +276,6 @@ def run_naca0012(alpha_deg: float = 0.0, level: str = "coarse", *, reynolds: flo
     fluid = Fluid(1.0, 1.0 / reynolds)
     model = None
     if turbulent:
-        from .turbulence import SST
-
         model = turbulence or SST(wall_treatment="low_re")
 
     def make_problem(c_l=None):
@@ -357,9 +366,7 @@ def cp_rms(r: NacaResult, reference_dir: Path = REFERENCE_DIR) -> float:
 
 
 def compare(r: NacaResult, reference_dir: Path = REFERENCE_DIR) -> list:
-    """:class:`solver.validation.Comparison` records of one run against CFL3D SST."""
-    from .validation import Comparison
-
+    """:class:`solver.validation.report.Comparison` records of one run against CFL3D SST."""
     a = float(r.alpha_deg)
     if a not in TOLERANCE:
         raise ValueError(f"no reference data for alpha = {a:g}; available {ALPHAS}")
@@ -383,8 +390,6 @@ def compare(r: NacaResult, reference_dir: Path = REFERENCE_DIR) -> list:
 def validate_naca0012(level: str, alpha: float | None = None):
     """NASA TMR NACA 0012, Re = 6e6, k-omega SST: C_L, C_D and C_p vs CFL3D (897x257 grid) at
     alpha = 0 and 10 deg (or only ``alpha``)."""
-    from .validation import ValidationReport
-
     t0 = time.perf_counter()
     alphas = ALPHAS if alpha is None else (float(alpha),)
     comparisons, details = [], {}
@@ -398,44 +403,3 @@ def validate_naca0012(level: str, alpha: float | None = None):
                        for k, v in quality(naca0012_cmesh(level)).items()}
     return ValidationReport("naca0012", level, validate_naca0012.__doc__.split("\n")[0], tuple(comparisons),
                             time.perf_counter() - t0, details)
-
-
-def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--alpha", type=float, default=0.0)
-    ap.add_argument("--level", default="coarse", choices=list(LEVELS))
-    ap.add_argument("--laminar", action="store_true", help="no turbulence model (harness check)")
-    ap.add_argument("--re", type=float, default=REYNOLDS)
-    ap.add_argument("--max-iter", type=int, default=Convergence.max_iter)
-    ap.add_argument("--verbose", action="store_true", help="print residuals, C_L and C_D every chunk")
-    ap.add_argument("--json", action="store_true")
-    ap.add_argument("--state", default=None, help="restart file (.npz): read if present, written at the end")
-    ap.add_argument("--max-seconds", type=float, default=None, help="stop after this wall time (s)")
-    a = ap.parse_args(argv)
-    conv = Convergence(max_iter=a.max_iter)
-
-    def progress(it, res, cl, cd):
-        if a.verbose:
-            print(it, " ".join(f"{k} {v:.2e}" for k, v in res.items()), f"C_L {cl:.6f} C_D {cd:.6f}", flush=True)
-
-    t0 = time.perf_counter()
-    r = run_naca0012(a.alpha, a.level, reynolds=a.re, turbulent=not a.laminar, convergence=conv, progress=progress,
-                     state_file=a.state, max_seconds=a.max_seconds)
-    s = r.summary()
-    s["total_seconds"] = round(time.perf_counter() - t0, 1)
-    s["ms_per_iteration"] = round(1e3 * r.solve_seconds / max(r.history["iterations_this_run"], 1), 1)
-    s["message"] = r.results.message
-    have_ref = (not a.laminar) and a.re == REYNOLDS and a.alpha in TOLERANCE
-    cmp = compare(r) if have_ref else []
-    if a.json:
-        print(json.dumps({**s, "comparisons": [c.as_json() for c in cmp]}, indent=1))
-    else:
-        print(json.dumps(s))
-        for c in cmp:
-            print(f"  {c.name:60s} {c.computed:12.6g} {c.reference:12.6g} {c.error:9.4g} {c.tolerance:8.4g} "
-                  f"{'pass' if c.passed else 'FAIL'}")
-    return 0 if all(c.passed for c in cmp) else 1
-
-
-if __name__ == "__main__":
-    sys.exit(main())

@@ -37,7 +37,7 @@ def test_comparison_pass_and_json():
 def test_dfg_mesh_geometry():
     """Areas sum to the channel minus the (polygonal) cylinder; the cylinder group has 4 n_quarter faces
     whose polygon has nodes at the two Δp points; groups are named."""
-    from solver.gmsh_meshes import dfg_cylinder
+    from solver.validation.meshes import dfg_cylinder
 
     m = dfg_cylinder(8, h_far=0.04, growth=0.1)
     assert m.group_names == ("inlet", "outlet", "walls", "cylinder")
@@ -54,7 +54,7 @@ def test_dfg_mesh_geometry():
 @needs_gmsh
 def test_cylinder_coarse_report():
     """DFG 2D-1 on 1 826 cells in about a second; tolerances and why they catch first-order upwind in
-    :data:`solver.validation.CYLINDER_TOLERANCES`."""
+    :data:`solver.validation.cylinder.CYLINDER_TOLERANCES`."""
     r = run_case("cylinder", "coarse")
     assert r.details["status"] == "converged"
     assert r.passed, [c for c in r.comparisons if not c.passed]
@@ -64,8 +64,7 @@ def test_cylinder_coarse_report():
 @needs_gmsh
 def test_cylinder_upwind_fails_coarse_tolerance():
     """The coarse tolerances fail a first-order convection scheme (measured C_D error 13 %)."""
-    from solver.cylinder import cylinder_settings, errors, run_cylinder
-    from solver.validation import CYLINDER_TOLERANCES
+    from solver.validation.cylinder import CYLINDER_TOLERANCES, cylinder_settings, errors, run_cylinder
 
     _, c = run_cylinder("coarse", cylinder_settings(convection="upwind"))
     assert 100 * errors(c)["C_D"] > CYLINDER_TOLERANCES["coarse"]["C_D"]

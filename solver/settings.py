@@ -1,0 +1,76 @@
+"""Settings of the steady pressure-based solver: :class:`SimpleSettings`, the one definition of every option.
+
+The optimiser's ``solver:`` configuration section is generated from :func:`dataclasses.fields` of
+:class:`SimpleSettings`, so a default changed here changes the blade evaluations too.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from .linalg import SolverSettings
+
+
+@dataclass(frozen=True)
+class SimpleSettings:
+    """Settings of the steady pressure-based solver (every option has a default).
+
+    The defaults are those of the blade evaluations (Re ~ 1e6, k-omega SST, first cell at y+ ~ 1):
+
+    algorithm: ``"simple"`` (default) or ``"simplec"`` (:data:`solver.simple.ALGORITHMS`).
+    alpha_u, alpha_p: momentum and pressure under-relaxation; ``alpha_p`` None means 1 (no pressure
+        relaxation, the SIMPLEC choice; :attr:`pressure_relaxation`). Defaults SIMPLE, 0.7, 0.3: SIMPLEC
+        (alpha_p = 1) diverged within 3 iterations on the coarse blade mesh at Re = 1e6 (first cell for
+        y+ = 1, aspect ratio ~3 500), laminar and SST alike; at low Re (laminar tests, the cavity and
+        cylinder cases) SIMPLEC with alpha_u = 0.8-0.98 and alpha_p = 1 is faster.
+    convection: ``"linear_upwind"`` (second order, deferred correction) or ``"upwind"``
+        (:data:`solver.assembly.CONVECTION_SCHEMES`).
+    limiter, limiter_k: gradient limiter for convection (:data:`solver.gradient.LIMITERS`).
+    max_iter: iteration cap. tol: scaled-residual tolerance for u, v and continuity.
+    monitor_tol, monitor_window: integral quantities must vary less than ``monitor_tol`` (relative)
+        over the last ``monitor_window`` iterations.
+    monitor_groups: boundary groups whose forces are monitored.
+    classify_window, classify_tol: a solve that reaches ``max_iter`` is classified from its monitors over
+        the last ``classify_window`` iterations (:func:`solver.convergence.classify`): ``converged`` if
+        they are stationary within ``classify_tol`` (relative; the issue's "lift and C_max stationary to
+        0.1 % over a window"), ``oscillating`` (bounded; use the window means in
+        ``FlowResults.classification``) or ``not_converged`` (drifting).
+    stall_tol: a solve also stops as ``converged`` once its monitors are stationary in that sense and
+        every scaled residual is below ``stall_tol`` — RANS residuals often stall between 1e-6 and 1e-5
+        (limiter chatter) while forces and C_max have settled. Default 1e-5; None: off (run to ``tol`` or
+        ``max_iter``).
+    divergence_factor: a residual above 1 and this many times its running minimum means divergence.
+    velocity_limit: a cell velocity component above this (m/s) means divergence.
+    pressure_gradient: gradient of p in the momentum source: ``"least_squares"`` or ``"green_gauss"``
+        (:data:`solver.simple.PRESSURE_GRADIENTS`).
+    blas_threads: BLAS threads while iterating (via threadpoolctl when installed; None: leave as is).
+        The per-iteration work is many small vector operations, where BLAS threads only contend
+        (measured 5x slower with default OpenBLAS threading on a busy 2-core machine).
+    momentum_solver, pressure_solver: linear solvers of the momentum and pressure-correction systems.
+    """
+
+    algorithm: str = "simple"
+    alpha_u: float = 0.7
+    alpha_p: float | None = 0.3
+    convection: str = "linear_upwind"
+    limiter: str = "venkatakrishnan"
+    limiter_k: float = 5.0
+    max_iter: int = 2000
+    tol: float = 1e-6
+    monitor_tol: float = 1e-5
+    monitor_window: int = 20
+    monitor_groups: tuple[str, ...] = ()
+    classify_window: int = 200
+    classify_tol: float = 1e-3
+    stall_tol: float | None = 1e-5
+    pressure_gradient: str = "least_squares"
+    blas_threads: int | None = 1
+    divergence_factor: float = 1e5
+    velocity_limit: float = 1e4
+    momentum_solver: SolverSettings = field(default_factory=lambda: SolverSettings("gauss_seidel", 0.1, 8))
+    pressure_solver: SolverSettings = field(default_factory=lambda: SolverSettings("amg", 0.05, 50))
+
+    @property
+    def pressure_relaxation(self) -> float:
+        """The pressure under-relaxation applied: ``alpha_p``, or 1 when it is None."""
+        return 1.0 if self.alpha_p is None else self.alpha_p
