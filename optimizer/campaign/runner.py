@@ -121,12 +121,17 @@ def _timedelta_seconds(value: str) -> float:
 class ClusterOptions(_Section):
     """Options of a ``dask-jobqueue`` cluster (``execution.cluster``; used by backends ``slurm``, ``pbs``).
 
-    One job runs ``processes`` single-threaded workers on ``cores`` cores (``processes`` defaults to
-    ``cores``). Workers retire after ``lifetime`` ± ``lifetime_stagger`` (dask durations such as ``"50m"``),
-    before the scheduler's wall time kills the job, and the runner starts a new job in their place; an
-    evaluation cut by a retirement is resubmitted. Defaults: with ``m = min(5 min, walltime / 10)``,
-    ``lifetime = walltime - 2 m`` and ``lifetime_stagger = m``, so workers leave between ``walltime - 3 m``
-    and ``walltime - m``.
+    One job (named ``job_name`` in ``squeue``) runs ``processes`` single-threaded workers on ``cores`` cores
+    (``processes`` defaults to ``cores``). ``log_directory`` receives the jobs' output (default: the
+    directory the campaign was started from); ``job_script_prologue`` lines run before the worker starts
+    (``module load ...``, ``source venv/bin/activate``); ``job_extra_directives`` are added as
+    ``#SBATCH``/``#PBS`` lines (``--constraint=...``, ``-l select=...``).
+
+    Workers retire after ``lifetime`` ± ``lifetime_stagger`` (dask durations such as ``"50m"``), before the
+    scheduler's wall time kills the job, and the runner starts a new job in their place; an evaluation cut
+    by a retirement is resubmitted (it costs a retry: keep ``lifetime`` well above ``execution.timeout``).
+    Defaults: with ``m = min(5 min, walltime / 10)``, ``lifetime = walltime - 2 m`` and
+    ``lifetime_stagger = m``, so workers leave between ``walltime - 3 m`` and ``walltime - m``.
     """
 
     queue: str | None = None
@@ -143,6 +148,7 @@ class ClusterOptions(_Section):
     python: str | None = None
     lifetime: str | None = None
     lifetime_stagger: str | None = None
+    job_name: str = "millfoil-worker"
 
     @field_validator("walltime")
     @classmethod
@@ -337,10 +343,16 @@ class InlineRunner(Runner):
             yield TaskResult(task.key, task.generation, record, "done", "", "", time.monotonic() - t0)
 
 
-def _execute(fn: Callable[[dict], dict], payload: dict, key: str, timeout: float) -> dict:
-    """Worker side of one attempt: announce the start, call ``fn``, report its record or its exception."""
+def _execute(fn_pickle: bytes, payload: dict, key: str, timeout: float) -> dict:
+    """Worker side of one attempt: announce the start, call ``fn``, report its record or its exception.
+
+    ``fn`` comes cloudpickled by the runner: dask pickles a task's arguments with plain pickle first, which
+    ignores ``cloudpickle.register_pickle_by_value`` (functions of modules the workers cannot import).
+    """
+    import cloudpickle
     from distributed import get_worker
 
+    fn = cloudpickle.loads(fn_pickle)
     worker = get_worker()
     worker.log_event(START_TOPIC, {"key": key, "worker": worker.address})
     try:
@@ -417,16 +429,18 @@ class DaskRunner(Runner):
     # ---- the batch --------------------------------------------------------------------------------
 
     def run(self, fn: Callable[[dict], dict], tasks: Iterable[Task]) -> Iterator[TaskResult]:
+        import cloudpickle
         from distributed import as_completed
 
         if self.client is None:
             raise RuntimeError("runner not started: use it as a context manager ('with runner: ...')")
+        fn_pickle = cloudpickle.dumps(fn)
         ac = as_completed()
         waiting: deque[tuple[Task, int]] = deque((task, 0) for task in tasks)  # (task, losses so far)
         pending: dict = {}  # future -> _Attempt
         try:
             while waiting or pending:
-                self._submit_to_free_threads(fn, waiting, pending, ac)
+                self._submit_to_free_threads(fn_pickle, waiting, pending, ac)
                 self._wait_for_completion(ac)
                 for future in ac.next_batch(block=False):
                     attempt = pending.pop(future, None)
@@ -440,7 +454,7 @@ class DaskRunner(Runner):
             if pending:  # the consumer stopped early: do not leave the batch running
                 self.client.cancel(list(pending))
 
-    def _submit_to_free_threads(self, fn, waiting: deque, pending: dict, ac) -> None:
+    def _submit_to_free_threads(self, fn_pickle: bytes, waiting: deque, pending: dict, ac) -> None:
         """Submit waiting tasks while worker threads are free.
 
         Submitting only what can start at once (rather than the whole batch) keeps an evaluation from
@@ -454,7 +468,8 @@ class DaskRunner(Runner):
         for _ in range(min(free, len(waiting))):
             task, losses = waiting.popleft()
             key = f"millfoil-{task.key}-{losses}-{uuid.uuid4().hex[:8]}"
-            future = self.client.submit(_execute, fn, task.payload, key, self.config.timeout, key=key, pure=False)
+            future = self.client.submit(_execute, fn_pickle, task.payload, key, self.config.timeout, key=key,
+                                        pure=False)
             pending[future] = _Attempt(task, key, losses, time.monotonic())
             ac.add(future)
 
@@ -557,8 +572,10 @@ class LocalRunner(DaskRunner):
         from distributed import LocalCluster
 
         n = self.config.workers or len(os.sched_getaffinity(0))
-        return LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None,
-                            silence_logs=logging.CRITICAL, env=dict(PINNED_THREADS_ENV))
+        # dashboard_address=None would still serve the dashboard on port 8787: no dashboard, no fixed port
+        return LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=":0",
+                            scheduler_kwargs={"dashboard": False}, silence_logs=logging.CRITICAL,
+                            env=dict(PINNED_THREADS_ENV))
 
 
 class SchedulerRunner(DaskRunner):
@@ -592,8 +609,9 @@ class JobQueueRunner(DaskRunner):
             worker_extra_args=["--lifetime", f"{math.floor(lifetime)}s",
                                "--lifetime-stagger", f"{math.floor(stagger)}s"],
             local_directory=options.local_directory, log_directory=options.log_directory,
-            interface=options.interface, python=options.python, silence_logs="critical",
-            scheduler_options={"dashboard_address": None},
+            interface=options.interface, python=options.python, job_name=options.job_name,
+            silence_logs="critical",
+            scheduler_options={"dashboard": False, "dashboard_address": ":0"},  # no dashboard, no fixed port
         )
         jobs = self.config.workers or 1
         # adapt, not scale: a job that ends (lifetime, wall time, scancel) is replaced by a new one
