@@ -32,7 +32,8 @@ A campaign file is a configuration file (``blade:``, ``mesh:``, ``flow:``, ``sol
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+import re
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any, Literal
 
@@ -40,7 +41,8 @@ import yaml
 from pydantic import Field, ValidationError, field_validator, model_validator
 
 from optimizer.campaign.runner import ExecutionConfig
-from optimizer.config import Config, ConfigError, _Frozen, apply_overrides
+from optimizer.config import Config, ConfigError, _Frozen, apply_overrides, load_config, set_values
+from optimizer.yamlsource import Source
 
 #: Figures of :class:`optimizer.evaluate.Evaluation` that can be objectives or constraints, with units.
 FIGURES: dict[str, str] = {
@@ -191,6 +193,22 @@ class CampaignConfig(Config):
             return {f: "-" for f in ANALYTIC[self.analytic.problem]}
         return FIGURES
 
+    @classmethod
+    def from_mapping(cls, raw: Mapping[str, Any], overrides: Sequence[str] = (), *,
+                     values: Mapping[str, Any] | None = None, blade_values: bool = False,
+                     source: Source | None = None) -> CampaignConfig:
+        """As :meth:`optimizer.config.Config.from_mapping`, with the campaign's checks across sections.
+        A campaign needs no single blade (``blade.parameters`` may be left out: the space is what counts)."""
+        source = source or Source("<defaults>")
+        data = set_values(apply_overrides(raw, overrides, cls), (values or {}).items(), cls)
+        try:
+            config = cls.model_validate(data)
+        except ValidationError as exc:
+            raise ConfigError(explain(exc, source, cls)) from None
+        if blade_values:
+            config.blade.blade_spec()
+        return check_campaign(config, source)
+
     def to_yaml(self) -> str:
         """The resolved campaign (every value, defaults included); reading it back gives the same one."""
         if self.analytic is None:
@@ -199,29 +217,9 @@ class CampaignConfig(Config):
 
 
 def load_campaign(path: str | Path | None, overrides: Sequence[str] = ()) -> CampaignConfig:
-    """Read a campaign file, apply ``KEY=VALUE`` overrides, validate; errors name key, file and line."""
-    from optimizer.yamlsource import Source, YamlSourceError, read_yaml
-
-    raw: Any = {}
-    source = Source("<defaults>")
-    if path is not None:
-        try:
-            raw, source = read_yaml(path)
-        except YamlSourceError as exc:
-            raise ConfigError(str(exc)) from None
-        raw = raw or {}
-        if not isinstance(raw, dict):
-            raise ConfigError(f"{source.where()}: a campaign file must be a YAML mapping of sections "
-                              f"({', '.join(CampaignConfig.model_fields)})")
-    blade = raw.setdefault("blade", {})
-    if isinstance(blade, dict) and "parameters" not in blade:
-        blade["parameters"] = {}      # a campaign varies the parameters: no single blade is needed
-    raw = apply_overrides(raw, overrides)
-    try:
-        config = CampaignConfig.model_validate(raw)
-    except ValidationError as exc:
-        raise ConfigError(explain(exc, source, CampaignConfig)) from None
-    return check_campaign(config, source)
+    """Read a campaign file, apply ``KEY=VALUE`` overrides, validate; errors name key, file and line
+    (:func:`optimizer.config.load_config` with this schema)."""
+    return load_config(path, overrides, schema=CampaignConfig, blade_values=False)
 
 
 def check_campaign(config: CampaignConfig, source: Any) -> CampaignConfig:
@@ -237,17 +235,17 @@ def check_campaign(config: CampaignConfig, source: Any) -> CampaignConfig:
             try:
                 check()
             except ConfigError as exc:
-                raise ConfigError(f"{source.where(_located(exc, where))}: {exc}") from None
+                raise ConfigError(f"{source.where(_located(exc, where, config))}: {exc}") from None
     return config
 
 
-def _located(exc: ConfigError, default: tuple) -> tuple:
-    """The path of the key a check's message names first (``parameter 'alpha'``), else ``default``."""
-    import re
-
-    m = re.search(r"parameter(?:\(s\))? '?([A-Za-z_0-9]+)", str(exc))
-    if m and default[:2] == ("blade", "bounds"):
-        return ("blade", "bounds", m.group(1))
+def _located(exc: ConfigError, default: tuple, config: CampaignConfig) -> tuple:
+    """The path of the parameter a check's message names first (``parameter 'alpha'``, ``bounds of
+    'alpha'``) in ``blade.bounds`` or ``blade.fixed``, else ``default``."""
+    m = re.search(r"(?:parameter(?:\(s\))?|bounds of) '?([A-Za-z_0-9]+)", str(exc))
+    if m and default[:1] == ("blade",):
+        name = m.group(1)
+        return ("blade", "fixed", name) if name in config.blade.fixed else ("blade", "bounds", name)
     return default
 
 
@@ -255,7 +253,7 @@ def explain(exc: ValidationError, source: Any, schema: type) -> str:
     """One line per problem: ``FILE:LINE: the key, what is wrong, what is allowed``."""
     lines = []
     for err in exc.errors():
-        loc = tuple(p for p in err["loc"] if not (isinstance(p, str) and p[:1].isupper()))   # drop union tags
+        loc = tuple(p for p in err["loc"] if not (isinstance(p, str) and "[" in p))   # drop validator tags
         where = ".".join(str(p) for p in loc)
         at = source.where(loc)
         if err["type"] == "extra_forbidden":
@@ -267,6 +265,10 @@ def explain(exc: ValidationError, source: Any, schema: type) -> str:
             lines.append(f"{at}: '{where}' is required")
         else:
             msg = err["msg"].removeprefix("Value error, ")
+            named = re.search(r"unknown key '([^']+)'", msg)     # a section that checks its own keys
+            if named:
+                loc = (*loc, named.group(1))
+                where, at = ".".join(str(p) for p in loc), source.where(loc)
             lines.append(f"{at}: '{where}': {msg} (got {err['input']!r})")
     return "; ".join(lines)
 

@@ -96,8 +96,14 @@ Progress = Callable[[GenerationProgress], None]
 
 # -------------------------------------------------------------------------------------------- entry
 def run_campaign(config: CampaignConfig, directory: str | Path | None = None, *, runner=None,
-                 fn: Callable[[dict], dict] | None = None, progress: Progress | None = None) -> Outcome:
-    """Start a new campaign in ``directory`` (default ``config.output.directory``)."""
+                 fn: Callable[[dict], dict] | None = None, progress: Progress | None = None,
+                 log: Callable[[str], None] | None = None) -> Outcome:
+    """Start a new campaign in ``directory`` (default ``config.output.directory``).
+
+    runner: a runner (default ``make_runner(config.execution)``); fn: the worker function (default
+    :func:`optimizer.campaign.record.evaluate_payload`); progress: called with a
+    :class:`GenerationProgress` on each event; log: called with one line at each phase.
+    """
     directory = Path(directory if directory is not None else config.output.directory)
     path = directory / STORE_NAME
     if path.exists():
@@ -110,11 +116,12 @@ def run_campaign(config: CampaignConfig, directory: str | Path | None = None, *,
     problem = make_problem(config)
     with Store(path) as store:
         store.start_campaign(config.to_yaml(), config.algorithm.seed, problem.version)
-        return _run(config, problem, store, directory, runner, fn, progress)
+        return _run(config, problem, store, directory, runner, fn, progress, log)
 
 
 def resume_campaign(directory: str | Path, *, runner=None, fn: Callable[[dict], dict] | None = None,
-                    progress: Progress | None = None, execution: dict | None = None) -> Outcome:
+                    progress: Progress | None = None, execution: dict | None = None,
+                    log: Callable[[str], None] | None = None) -> Outcome:
     """Continue the campaign stored in ``directory`` with its saved configuration (``execution``: changes
     to the ``execution:`` section, e.g. another backend for the rest of the run)."""
     directory = Path(directory)
@@ -127,9 +134,12 @@ def resume_campaign(directory: str | Path, *, runner=None, fn: Callable[[dict], 
             raise CampaignError(f"{path} holds no campaign (it never started)")
         config = saved_config(row.config, execution)
         problem = make_problem(config)
+        if problem.version != row.version and log:
+            log(f"the campaign started with millfoil {row.version}, this is {problem.version}: its stored "
+                "evaluations are kept and the rest run with this version")
         problem.version = row.version       # the keys of the stored evaluations stay valid
         store.start_campaign(row.config, row.seed, row.version)
-        return _run(config, problem, store, directory, runner, fn, progress)
+        return _run(config, problem, store, directory, runner, fn, progress, log)
 
 
 def saved_config(text: str, execution: dict | None = None) -> CampaignConfig:
@@ -143,7 +153,7 @@ def saved_config(text: str, execution: dict | None = None) -> CampaignConfig:
 
 
 # --------------------------------------------------------------------------------------------- loop
-def _run(config, problem, store, directory, runner, fn, progress) -> Outcome:
+def _run(config, problem, store, directory, runner, fn, progress, log) -> Outcome:
     if runner is None:
         from optimizer.campaign.runner import make_runner
 
@@ -152,7 +162,7 @@ def _run(config, problem, store, directory, runner, fn, progress) -> Outcome:
         from optimizer.campaign.record import evaluate_payload
 
         fn = evaluate_payload
-    loop = _Loop(config, problem, store, runner, fn, progress or (lambda _p: None))
+    loop = _Loop(config, problem, store, runner, fn, progress or (lambda _p: None), log or (lambda _line: None))
     try:
         with _terminate_as_interrupt(), runner:
             loop.run()
@@ -188,9 +198,9 @@ def _terminate_as_interrupt() -> Iterator[None]:
 class _Loop:
     """The generation loop of one driver session (see the module docstring)."""
 
-    def __init__(self, config: CampaignConfig, problem: CampaignProblem, store: Store, runner, fn, progress):
+    def __init__(self, config: CampaignConfig, problem: CampaignProblem, store: Store, runner, fn, progress, log):
         self.config, self.problem, self.store, self.runner, self.fn = config, problem, store, runner, fn
-        self.progress = progress
+        self.progress, self.log = progress, log
         self.pymoo = problem.pymoo_problem()
         self.algorithm_config = config.algorithm
         self.generation_seconds: list[float] = []
@@ -216,9 +226,14 @@ class _Loop:
         """A fresh algorithm (feasible initial population) or one rebuilt from the last stored generation."""
         last = self.store.last_generation()
         if last is None:
-            X0, _draws = initial_population(self.problem, self.algorithm_config.population,
-                                            self.algorithm_config.seed, self.algorithm_config.initial_draws)
+            a = self.algorithm_config
+            self.log(f"drawing a geometrically feasible initial population of {a.population} (seed {a.seed})")
+            X0, draws = initial_population(self.problem, a.population, a.seed, a.initial_draws)
+            self.log(f"initial population: {a.population} feasible of {draws} random designs "
+                     f"({a.population / draws:.1%})")
             return self._algorithm(X0), 0
+        self.log(f"continuing after generation {last.generation + 1} of {self.algorithm_config.generations} "
+                 "(population and random state from the store)")
         algorithm = self._algorithm(np.zeros((1, self.problem.n_var)))
         rows = self.store.get_many(last.members)
         pop = self._population([rows[k] for k in last.members])

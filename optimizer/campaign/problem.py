@@ -334,13 +334,14 @@ def initial_population(problem: CampaignProblem, size: int, seed: int, max_draws
     draws, budget, batch = 0, max_draws * size, max(4 * size, 64)
     while len(found) < size and draws < budget:
         X = problem.lower + (problem.upper - problem.lower) * rng.random((min(batch, budget - draws), problem.n_var))
-        draws += len(X)
         screened = problem.prescreen(X) if hasattr(problem, "prescreen") else np.ones(len(X), bool)
-        for x in X[screened]:
-            if problem.check(x).feasible:
+        for i, x in enumerate(X):
+            if screened[i] and problem.check(x).feasible:
                 found.append(x)
                 if len(found) == size:
+                    X = X[: i + 1]
                     break
+        draws += len(X)
     if len(found) < size:
         raise EmptySpaceError(
             f"only {len(found)} of {draws} random designs are geometrically feasible "

@@ -17,14 +17,14 @@ import argparse
 import sys
 from collections.abc import Sequence
 
-from optimizer.cli import blade, evaluate, mesh, validate
+from optimizer.cli import blade, campaign, evaluate, mesh, validate
 from optimizer.cli.common import EXIT_FAILED, EXIT_INFEASIBLE, EXIT_INPUT, EXIT_OK
 from optimizer.config import ConfigError
 
 __all__ = ["COMMANDS", "EXIT_FAILED", "EXIT_INFEASIBLE", "EXIT_INPUT", "EXIT_OK", "main"]
 
 #: Command modules, in the order of ``millfoil --help``.
-COMMANDS = (blade, mesh, evaluate, validate)
+COMMANDS = (blade, mesh, evaluate, validate, campaign)
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -1,0 +1,178 @@
+"""Progress of a running campaign and summaries of a stored one, as text.
+
+:class:`ProgressDisplay` receives :class:`optimizer.campaign.driver.GenerationProgress` events. On a
+terminal it keeps one status line updated in place (done / failed / running, best objectives,
+hypervolume, ETA) and leaves one line per finished generation above it; elsewhere (a log file, a batch
+job) it writes only the line per finished generation — a log, not a flood.
+
+:func:`status_of` reads a store (read-only, safe while the campaign runs) into a JSON-able summary, and
+:func:`format_status` / :func:`front_table` turn summaries into text for ``millfoil status`` and the end of
+``millfoil run``.
+"""
+
+from __future__ import annotations
+
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+from typing import TextIO
+
+from optimizer.campaign.store import STORE_NAME, EvaluationRow, Store
+
+
+def duration(seconds: float | None) -> str:
+    """``1h02m``, ``3m05s``, ``42s`` or ``?``."""
+    if seconds is None:
+        return "?"
+    s = int(round(seconds))
+    if s >= 3600:
+        return f"{s // 3600}h{(s % 3600) // 60:02d}m"
+    if s >= 60:
+        return f"{s // 60}m{s % 60:02d}s"
+    return f"{s}s"
+
+
+def number(v: float | None) -> str:
+    return "-" if v is None else f"{v:.4g}"
+
+
+def progress_line(p) -> str:
+    """One line for a :class:`GenerationProgress`."""
+    best = " ".join(f"{k} {number(v)}" for k, v in p.best.items()) or "-"
+    share = "-" if p.feasible_share is None else f"{p.feasible_share:.0%}"
+    head = f"generation {p.generation + 1}/{p.generations}"
+    counts = (f"{p.total} designs: {p.done} done, {p.failed} failed, {p.infeasible} infeasible, "
+              f"{p.cached} cached")
+    if not p.finished:
+        counts += f", {p.running} running"
+    return (f"{head}: {counts} | feasible {share} | best {best} | hypervolume {number(p.hypervolume)} | "
+            f"ETA {duration(p.eta_s)}")
+
+
+class ProgressDisplay:
+    """Callable progress sink (see the module docstring); ``live`` defaults to ``stream.isatty()``."""
+
+    def __init__(self, stream: TextIO | None = None, live: bool | None = None):
+        self.stream = stream or sys.stderr
+        self.live = self.stream.isatty() if live is None else live
+        self._pending = False
+
+    def __call__(self, p) -> None:
+        line = progress_line(p)
+        if p.finished:
+            self._clear()
+            print(line, file=self.stream, flush=True)
+        elif self.live:
+            self._clear()
+            print(line[: _width() - 1], end="", file=self.stream, flush=True)
+            self._pending = True
+
+    def log(self, line: str) -> None:
+        self._clear()
+        print(f"millfoil: {line}", file=self.stream, flush=True)
+
+    def _clear(self) -> None:
+        if self._pending:
+            print("\r\033[K", end="", file=self.stream)
+            self._pending = False
+
+
+def _width() -> int:
+    import shutil
+
+    return shutil.get_terminal_size((120, 20)).columns
+
+
+# -------------------------------------------------------------------------------------------- status
+def status_of(directory: str | Path) -> dict:
+    """A JSON-able summary of the campaign in ``directory`` read from its store (read-only)."""
+    import yaml
+
+    from optimizer.campaign.driver import saved_config
+
+    with Store(Path(directory) / STORE_NAME, readonly=True) as store:
+        row = store.campaign()
+        if row is None:
+            raise FileNotFoundError(f"{directory}: the store holds no campaign yet")
+        config = saved_config(row.config)
+        generations = store.generations()
+        rows = list(store.evaluations())
+    by_status: dict[str, int] = {}
+    by_class: dict[str, int] = {}
+    for r in rows:
+        by_status[r.status] = by_status.get(r.status, 0) + 1
+        if r.convergence:
+            by_class[r.convergence] = by_class.get(r.convergence, 0) + 1
+    labels = [o.label for o in config.objectives]
+    senses = {o.label: o.sense for o in config.objectives}
+    best: dict[str, float] = {}
+    for r in rows:
+        if r.feasible and r.objectives:
+            for k in labels:
+                v = r.objectives[k]
+                if k not in best or (v > best[k] if senses[k] == "max" else v < best[k]):
+                    best[k] = v
+    done = len(generations)
+    current = [r for r in rows if r.generation == done]
+    seconds = [r.wall_seconds for r in rows if r.wall_seconds is not None]
+    return {
+        "directory": str(directory), "state": row.state, "message": row.message, "started": row.started,
+        "ended": row.ended, "version": row.version, "seed": row.seed,
+        "generations": {"done": done, "total": config.algorithm.generations},
+        "population": config.algorithm.population, "evaluations": len(rows), "by_status": by_status,
+        "by_class": by_class, "current_generation": {"index": done, "stored": len(current)},
+        "best": best, "objectives": labels,
+        "hypervolume": [g.hypervolume for g in generations],
+        "feasible_share": [g.feasible_share for g in generations],
+        "cache_hits": sum(g.cache_hits for g in generations),
+        "mean_evaluation_seconds": sum(seconds) / len(seconds) if seconds else None,
+        "mode": None if config.analytic else yaml.safe_load(yaml.safe_dump(config.blade.mode.value)),
+    }
+
+
+def format_status(s: dict) -> str:
+    """``millfoil status`` text of a :func:`status_of` summary."""
+    g = s["generations"]
+    lines = [
+        f"campaign {s['directory']}: {s['state']}" + (f" ({s['message']})" if s.get("message") else ""),
+        f"  started {s['started']}" + (f", ended {s['ended']}" if s.get("ended") else "")
+        + f"; millfoil {s['version']}, seed {s['seed']}",
+        f"  generations {g['done']}/{g['total']} (population {s['population']}); "
+        f"{s['current_generation']['stored']} evaluations of generation {g['done'] + 1} stored"
+        if g["done"] < g["total"] else f"  generations {g['done']}/{g['total']} (population {s['population']})",
+        f"  evaluations {s['evaluations']}: " + ", ".join(f"{k} {v}" for k, v in sorted(s["by_status"].items())),
+        "  convergence classes: " + (", ".join(f"{k} {v}" for k, v in sorted(s["by_class"].items())) or "-"),
+        "  best: " + (" ".join(f"{k} {number(v)}" for k, v in s["best"].items()) or "-"),
+        f"  hypervolume (last generation): {number(s['hypervolume'][-1] if s['hypervolume'] else None)}; "
+        f"feasible share of offspring (last): "
+        + ("-" if not s["feasible_share"] or s["feasible_share"][-1] is None else f"{s['feasible_share'][-1]:.0%}")
+        + f"; cache hits {s['cache_hits']}; mean evaluation {duration(s['mean_evaluation_seconds'])}",
+    ]
+    return "\n".join(lines)
+
+
+def front_table(rows: Sequence[EvaluationRow], labels: Sequence[str]) -> str:
+    """The non-dominated designs as a text table: objectives, convergence class, generation, key."""
+    if not rows:
+        return "no feasible design yet"
+    head = ["#", *labels, "class", "gen", "key"]
+    body = [[str(i + 1), *(number(r.objectives[k]) for k in labels), r.convergence or "-", str(r.generation + 1),
+             r.key[:10]] for i, r in enumerate(rows)]
+    widths = [max(len(row[j]) for row in [head, *body]) for j in range(len(head))]
+    fmt = "  ".join(f"{{:>{w}}}" for w in widths)
+    return "\n".join(fmt.format(*row) for row in [head, *body])
+
+
+def write_front_csv(rows: Sequence[EvaluationRow], labels: Sequence[str], path: str | Path) -> Path:
+    """The non-dominated designs with every parameter as CSV (objectives, class, generation, key,
+    parameters in configuration units: metres, degrees)."""
+    import csv
+
+    names = sorted({n for r in rows for n in r.parameters})
+    with open(path, "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow([*labels, "class", "generation", "key", *names])
+        for r in rows:
+            w.writerow([*(repr(r.objectives[k]) for k in labels), r.convergence or "", r.generation + 1, r.key,
+                        *(repr(r.parameters.get(n, "")) for n in names)])
+    return Path(path)

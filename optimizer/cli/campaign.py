@@ -1,0 +1,189 @@
+"""``millfoil run | resume | status | check``: optimisation campaigns (:mod:`optimizer.campaign`).
+
+Exit status of ``run`` and ``resume``: 0 the campaign finished, 2 bad input (configuration, an existing
+run directory, no store to resume), 4 the campaign failed (an error outside any single evaluation; the
+store keeps what finished), 130 interrupted (Ctrl-C or SIGTERM, e.g. a batch system's wall time: continue
+with ``millfoil resume RUN``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+from optimizer.cli.common import EXIT_FAILED, EXIT_INPUT, EXIT_OK, config_arguments
+from optimizer.config import ConfigError
+
+#: Exit status of an interrupted campaign (128 + SIGINT, as a shell reports Ctrl-C).
+EXIT_INTERRUPTED = 130
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    """Add the campaign commands."""
+    run = sub.add_parser(
+        "run",
+        help="run an optimisation campaign (NSGA-II over the evaluation pipeline)",
+        description="Run the campaign of a YAML file: NSGA-II generation by generation, evaluations in "
+        "parallel (execution: section; default a local dask cluster, one worker per core), every result "
+        "stored at once in RUN/campaign.sqlite. Shows progress per generation and ends by printing where the "
+        "results are and the non-dominated designs. Exit status: 0 finished, 2 bad input, 4 failed, "
+        "130 interrupted (continue with `millfoil resume RUN`).",
+        epilog="Examples:\n"
+        "  millfoil run configs/quickstart.yaml\n"
+        "  millfoil run configs/paper/toolpath_g1.yaml --set execution.backend=slurm --out runs/tp_g1\n"
+        "Configuration reference: docs/campaigns.md.",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    config_arguments(run)
+    run.add_argument("--out", type=Path, metavar="RUN", help="run directory (default: the config's output.directory)")
+    run.add_argument("--quiet", action="store_true", help="no progress display")
+    run.set_defaults(run=run_run)
+
+    resume = sub.add_parser(
+        "resume",
+        help="continue a campaign whose driver stopped (interrupt, kill, wall time)",
+        description="Continue the campaign stored in RUN with its saved configuration: the population and "
+        "random state of the last finished generation come from the store, stored evaluations are never run "
+        "again, and the result equals an uninterrupted run with the same seed. Exit status as `millfoil run`.",
+        epilog="Example:\n  millfoil resume runs/quickstart\n"
+        "  millfoil resume runs/tp_g1 --set execution.backend=local   # finish on this machine",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    resume.add_argument("directory", type=Path, metavar="RUN", help="run directory (holds campaign.sqlite)")
+    resume.add_argument("--set", dest="overrides", action="append", default=[], metavar="execution.KEY=VALUE",
+                        help="change the execution: section for the rest of the run (only execution.* keys)")
+    resume.add_argument("--quiet", action="store_true", help="no progress display")
+    resume.set_defaults(run=run_resume)
+
+    status = sub.add_parser(
+        "status",
+        help="show a campaign's progress from its store (works while it runs)",
+        description="Read RUN/campaign.sqlite (read-only; safe while the campaign runs, from any shell or "
+        "node that sees the file) and print its state, generations, evaluations by status and convergence "
+        "class, best objectives and hypervolume.",
+    )
+    status.add_argument("directory", type=Path, metavar="RUN")
+    status.add_argument("--json", action="store_true", help="print the summary as JSON")
+    status.set_defaults(run=run_status)
+
+    check = sub.add_parser(
+        "check",
+        help="validate a campaign file and print the resolved campaign",
+        description="Validate a campaign file without running it: every key and value (errors name the key, "
+        "the file and the line), the blade space, the mesh; print the design variables and their bounds, the "
+        "objectives and constraints, the budget and the resolved configuration (every default included).",
+    )
+    config_arguments(check)
+    check.set_defaults(run=run_check)
+
+
+# ------------------------------------------------------------------------------------------ commands
+def run_check(args: argparse.Namespace) -> int:
+    from optimizer.campaign.config import load_campaign
+    from optimizer.campaign.problem import make_problem
+
+    config = load_campaign(args.config, args.overrides)
+    problem = make_problem(config)
+    a = config.algorithm
+    print(f"campaign {args.config or '<defaults>'}: valid")
+    if config.analytic is None:
+        print(f"  blade: {config.blade.mode.value} {config.blade.continuity.value}; mesh {config.mesh.level}, "
+              f"half-height {config.mesh_spec().half_height:g} chords; solver {config.solver.model}")
+        fixed = ", ".join(f"{k} = {v:g}" for k, v in problem.space.fixed.items())
+        print(f"  fixed: {fixed or '-'}")
+    else:
+        print(f"  analytic problem {config.analytic.problem} ({config.analytic.variables} variables)")
+    print(f"  design variables ({problem.n_var}):")
+    for n, lo, hi in zip(problem.names, problem.lower, problem.upper, strict=True):
+        print(f"    {n:10s} [{lo:g}, {hi:g}]")
+    print("  objectives: " + ", ".join(f"{o.sense} {o.label}" for o in config.objectives))
+    print("  constraints: " + (", ".join(problem.constraint_names)))
+    print(f"  oscillating results: {config.convergence.oscillating}"
+          + (f" (amplitude <= {config.convergence.max_amplitude:.2%} of the mean)"
+             if config.convergence.oscillating == "accept_below_amplitude" else ""))
+    print(f"  NSGA-II: population {a.population}, {a.generations} generations, offspring "
+          f"{a.offspring or a.population}, seed {a.seed}: at most "
+          f"{a.population + (a.generations - 1) * (a.offspring or a.population)} evaluations")
+    print(f"  execution: {config.execution.backend}; run directory {config.output.directory}")
+    print("\n# resolved campaign")
+    print(config.to_yaml(), end="")
+    return EXIT_OK
+
+
+def run_run(args: argparse.Namespace) -> int:
+    from optimizer.campaign.config import load_campaign
+    from optimizer.campaign.driver import run_campaign
+
+    config = load_campaign(args.config, args.overrides)
+    directory = args.out or config.output.directory
+    return _drive(lambda display: run_campaign(config, directory, progress=display, log=display.log),
+                  args.quiet, directory)
+
+
+def run_resume(args: argparse.Namespace) -> int:
+    from optimizer.campaign.driver import resume_campaign
+
+    execution = {}
+    for item in args.overrides:
+        key, sep, text = item.partition("=")
+        if not sep or not key.startswith("execution."):
+            raise ConfigError(f"--set {item!r}: resume changes only execution.KEY=VALUE (the rest of the "
+                              "campaign is fixed by its store)")
+        import yaml
+
+        execution[key.removeprefix("execution.")] = yaml.safe_load(text)
+    return _drive(lambda display: resume_campaign(args.directory, progress=display, log=display.log,
+                                                  execution=execution or None), args.quiet, args.directory)
+
+
+def run_status(args: argparse.Namespace) -> int:
+    from optimizer.campaign.progress import format_status, status_of
+
+    try:
+        summary = status_of(args.directory)
+    except FileNotFoundError as exc:
+        raise ConfigError(str(exc)) from None
+    print(json.dumps(summary, indent=2) if args.json else format_status(summary))
+    return EXIT_OK
+
+
+# ------------------------------------------------------------------------------------------- helpers
+def _drive(start, quiet: bool, directory: Path) -> int:
+    from optimizer.campaign.driver import CampaignError
+    from optimizer.campaign.problem import EmptySpaceError
+    from optimizer.campaign.progress import ProgressDisplay, front_table, write_front_csv
+
+    display = ProgressDisplay()
+    try:
+        outcome = start(_Quiet(display) if quiet else display)
+    except (CampaignError, EmptySpaceError) as exc:
+        print(f"millfoil: error: {exc}", file=sys.stderr)
+        return EXIT_INPUT
+    except KeyboardInterrupt:
+        print(f"\nmillfoil: interrupted; what finished is stored. Continue with: millfoil resume {directory}",
+              file=sys.stderr)
+        return EXIT_INTERRUPTED
+    except ConfigError:
+        raise
+    except Exception as exc:
+        print(f"millfoil: error: the campaign failed: {type(exc).__name__}: {exc}; what finished is stored in "
+              f"{directory}", file=sys.stderr)
+        return EXIT_FAILED
+    csv_path = write_front_csv(outcome.front, outcome.labels, Path(outcome.directory) / "front.csv")
+    print(f"campaign finished: {outcome.generations} generations; results in {outcome.directory}/ "
+          f"(campaign.sqlite, config.yaml, {csv_path.name})")
+    print(f"non-dominated designs ({len(outcome.front)}):")
+    print(front_table(outcome.front, outcome.labels))
+    return EXIT_OK
+
+
+class _Quiet:
+    """A progress sink that shows nothing but phase lines."""
+
+    def __init__(self, display):
+        self.log = display.log
+
+    def __call__(self, _p) -> None:
+        pass
