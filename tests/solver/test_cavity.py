@@ -87,6 +87,7 @@ def cavity100():
     return run_cavity(100, 32, "gmsh_mixed")
 
 
+@pytest.mark.slow
 @needs_gmsh
 def test_cavity_re100_matches_ghia(cavity100):
     """Golden tolerance: measured RMS centreline error 0.32 % of U (linear upwind) on this mesh; first-order
@@ -102,6 +103,7 @@ def test_cavity_re100_matches_ghia(cavity100):
     assert rows[-1]["pass"] and {"name", "computed", "reference", "error"} <= set(rows[0])
 
 
+@pytest.mark.slow
 @needs_gmsh
 def test_cavity_results_api(cavity100, tmp_path):
     res, _ = cavity100
@@ -121,6 +123,7 @@ def test_cavity_results_api(cavity100, tmp_path):
     assert "U" in back.cell_data and "p" in back.cell_data
 
 
+@pytest.mark.slow
 @needs_gmsh
 def test_upwind_is_less_accurate(cavity100):
     """Sanity of the deferred correction: first-order upwind is measurably worse on the same mesh."""
@@ -129,6 +132,7 @@ def test_upwind_is_less_accurate(cavity100):
     assert cmp_up.rms > 1.5 * cmp.rms
 
 
+@pytest.mark.slow
 @needs_gmsh
 def test_manufactured_solution_order():
     """MMS on a 170-cell gmsh triangle mesh and its two uniform refinements (680, 2 720 cells), mu = 0.1,

@@ -51,6 +51,7 @@ def coarse():
     return run_case("flatplate", "coarse")
 
 
+@pytest.mark.slow
 def test_coarse_case_passes(coarse):
     """Coarse level (3 840 cells, y+ < 0.6, low_re): measured c_f(0.97) 2.1 % and C_D 2.2 % below TMR
     (CFL3D on its 3 264-cell grid: 2.4 % and 2.3 % below); tolerance 5 %, which F1 = 0 (+21 %) and no
@@ -61,6 +62,7 @@ def test_coarse_case_passes(coarse):
     assert coarse.details["y_plus_max"] < 1.0
 
 
+@pytest.mark.slow
 def test_laminar_fails_coarse_tolerance():
     """Without the turbulence model the plate is laminar (Blasius c_f ~ 0.0003; converged: 89 % / 85 % low):
     far outside 5 % already after 100 iterations."""
@@ -68,6 +70,7 @@ def test_laminar_fails_coarse_tolerance():
     assert c.errors()["cf_x0.97"] > 0.5 and c.errors()["C_D"] > 0.5
 
 
+@pytest.mark.slow
 def test_automatic_wall_treatment_at_y_plus_30():
     """Wall functions: the coarse plate with the first cell at y+ ~ 30 (3e-4 m first spacing, 64 normal cells)
     and the ``automatic`` treatment: measured c_f(0.97) 1.0 % and C_D 1.4 % above TMR (3 %: a failure means

@@ -98,6 +98,7 @@ def test_reference_files():
     assert fs["viscosity_ratio"] == pytest.approx(0.009) and fs["intensity"] == pytest.approx(5.164e-4, rel=1e-3)
 
 
+@pytest.mark.slow
 def test_laminar_symmetric_alpha0():
     """Laminar run at Re = 1000, alpha = 0 on a small mesh of the same generator (2 592 cells, 200
     iterations): C_L ~ 0 and C_p equal on both surfaces (mirror-symmetric mesh); C_D with both parts."""
@@ -115,6 +116,7 @@ def test_laminar_symmetric_alpha0():
     assert r.cp_upper[0] > 0.9                                      # stagnation at the leading edge
 
 
+@pytest.mark.slow
 def test_alpha_rotation_gives_lift():
     """The freestream is rotated, not the mesh: at alpha = 5 deg a short laminar run gives C_L > 0 and
     the inflow/outflow split follows U∞."""
@@ -145,6 +147,7 @@ def test_vortex_velocity_circulation():
     assert np.allclose(far, freestream(10.0)[None, :], atol=1e-9)
 
 
+@pytest.mark.slow
 def test_restart_state_roundtrip(tmp_path):
     """A run continued from its state file reproduces the fields and counts iterations across runs."""
     from solver.validation.naca0012 import Convergence, run_naca0012
@@ -160,6 +163,7 @@ def test_restart_state_roundtrip(tmp_path):
     assert b.iterations == 60 and len(b.history["c_d"]) == 3
 
 
+@pytest.mark.slow
 def test_sst_alpha10_coarse_matches_cfl3d():
     """From the potential start, k-omega SST (low_re) at alpha = 10 deg on the coarse C-mesh (10 800 cells):
     measured C_L 1.0616 (-1.50 % of CFL3D's 1.0778), C_D 0.012056 (-2.48 % of 0.012362), C_p RMS 0.077,

@@ -16,6 +16,7 @@ def problem():
     return Problem.create(dfg_cylinder(**LEVELS["coarse"]), BOUNDARY_CONDITIONS, FLUID)
 
 
+@pytest.mark.slow
 def test_drifting_solve_at_the_cap_is_not_converged(problem):
     """Heavy under-relaxation makes the forces creep towards their value: a drift, not an oscillation."""
     res = solve_steady(problem, dataclasses.replace(cylinder_settings(), alpha_u=0.05, max_iter=60,
@@ -25,6 +26,7 @@ def test_drifting_solve_at_the_cap_is_not_converged(problem):
     assert res.classification.drift["fx:cylinder"] is not None
 
 
+@pytest.mark.slow
 def test_stalled_residuals_with_settled_forces_stop_as_converged(problem):
     reference = solve_steady(problem, cylinder_settings())
     stalled = dataclasses.replace(cylinder_settings(), tol=1e-14, stall_tol=1e-4, classify_window=30,

@@ -169,6 +169,7 @@ def channel_problem(wall_treatment="low_re", n=24, triangles="right_half"):
     return Problem.create(m, bc, Fluid(1.0, 1e-5), turbulence=SST(wall_treatment=wall_treatment))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("wall", sorted(WALL_TREATMENTS))
 def test_turbulent_run_positive_and_results_api(wall, tmp_path):
     """k, omega, nu_t stay positive and finite on a mixed quad/triangle mesh (triangles at the wall on the

@@ -51,6 +51,7 @@ def test_dfg_mesh_geometry():
     assert len(m.cells["quad"]) > 0 and np.all(np.einsum("ij,ij->i", m.d, m.normal) > 0)
 
 
+@pytest.mark.slow
 @needs_gmsh
 def test_cylinder_coarse_report():
     """DFG 2D-1 on 1 826 cells in about a second; tolerances and why they catch first-order upwind in
@@ -61,6 +62,7 @@ def test_cylinder_coarse_report():
     assert [c.name.split()[0] for c in r.comparisons] == ["C_D", "dp", "C_L"]
 
 
+@pytest.mark.slow
 @needs_gmsh
 def test_cylinder_upwind_fails_coarse_tolerance():
     """The coarse tolerances fail a first-order convection scheme (measured C_D error 13 %)."""
@@ -70,6 +72,7 @@ def test_cylinder_upwind_fails_coarse_tolerance():
     assert 100 * errors(c)["C_D"] > CYLINDER_TOLERANCES["coarse"]["C_D"]
 
 
+@pytest.mark.slow
 @needs_gmsh
 def test_cavity_coarse_report():
     r = run_case("cavity", "coarse")
@@ -77,6 +80,7 @@ def test_cavity_coarse_report():
     assert r.comparisons[0].error == r.comparisons[0].computed       # RMS error vs a zero reference
 
 
+@pytest.mark.slow
 @needs_gmsh
 def test_mms_coarse_report():
     r = run_case("mms", "coarse")

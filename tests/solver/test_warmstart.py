@@ -11,6 +11,7 @@ from solver.validation.meshes import dfg_cylinder  # noqa: E402
 from solver.warmstart import mapped_state  # noqa: E402
 
 
+@pytest.mark.slow
 def test_warm_start_from_another_mesh_converges_to_the_same_answer():
     coarse = Problem.create(dfg_cylinder(**LEVELS["coarse"]), BOUNDARY_CONDITIONS, FLUID)
     source = solve_steady(coarse, cylinder_settings())
