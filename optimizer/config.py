@@ -17,7 +17,7 @@ import copy
 import dataclasses
 from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
-from typing import Any, Literal, Self
+from typing import Any, Literal, Self, get_args, get_type_hints
 
 import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, create_model, field_validator, model_validator
@@ -27,6 +27,7 @@ from geometry.examples import TABLE4_C2_DESIGN
 from meshing import LEVELS, MeshSpec
 from optimizer import yamlsource
 from optimizer.yamlsource import Source
+from solver import SimpleSettings
 
 
 class ConfigError(ValueError):
@@ -135,45 +136,94 @@ class FlowConfig(_Frozen):
         return self.span if self.span is not None else 0.04 * chord
 
 
-class SolverConfig(_Frozen):
+#: Fields of :class:`solver.SimpleSettings` that are not keys of the ``solver:`` section, and why.
+SETTINGS_NOT_CONFIGURED = {
+    "monitor_groups": "the pipeline monitors the blade (its forces, with C_max)",
+    "momentum_solver": "linear-solver settings objects, tuned per equation in the solver",
+    "pressure_solver": "linear-solver settings objects, tuned per equation in the solver",
+    "blas_threads": "how a machine runs the solve, not what it computes (the results are the same); the "
+                    "solver's default (1) is the fastest measured",
+}
+#: Bounds and choices of the configured settings; their types and defaults are read from
+#: :class:`solver.SimpleSettings` (one definition: the two cannot drift apart). The solver checks the
+#: choices again; here they make a bad value a configuration error that names the key.
+SETTING_RULES: dict[str, dict[str, Any]] = {
+    "algorithm": {"choices": ("simple", "simplec")},
+    "alpha_u": {"gt": 0, "le": 1},
+    "alpha_p": {"gt": 0, "le": 1},
+    "convection": {"choices": ("linear_upwind", "upwind")},
+    "limiter": {"choices": ("venkatakrishnan", "barth_jespersen", "none")},
+    "limiter_k": {"gt": 0},
+    "max_iter": {"gt": 0},
+    "tol": {"gt": 0},
+    "monitor_tol": {"gt": 0},
+    "monitor_window": {"ge": 2},
+    "classify_window": {"ge": 8},
+    "classify_tol": {"gt": 0},
+    "stall_tol": {"gt": 0},
+    "pressure_gradient": {"choices": ("least_squares", "green_gauss")},
+    "divergence_factor": {"gt": 1},
+    "velocity_limit": {"gt": 0},
+}
+_SCALARS = (bool, int, float, str)
+
+
+def _setting_fields() -> dict[str, tuple[Any, Any]]:
+    """The ``solver:`` keys made from :class:`solver.SimpleSettings`: ``{name: (annotation, Field)}`` for
+    every field with a scalar (or optional scalar) type and a plain default, bar
+    :data:`SETTINGS_NOT_CONFIGURED`."""
+    hints = get_type_hints(SimpleSettings)
+    out = {}
+    for f in dataclasses.fields(SimpleSettings):
+        hint = hints[f.name]
+        optional = type(None) in get_args(hint)
+        base = next(a for a in get_args(hint) if a is not type(None)) if optional else hint
+        if f.name in SETTINGS_NOT_CONFIGURED or base not in _SCALARS or f.default is dataclasses.MISSING:
+            continue
+        rules = dict(SETTING_RULES.get(f.name, {}))
+        choices = rules.pop("choices", None)
+        annotation = Literal[choices] if choices else base
+        out[f.name] = (annotation | None if optional else annotation, Field(f.default, **rules))
+    return out
+
+
+class _SolverBase(_Frozen):
     """``solver:`` section — the flow model and the steady solver (the mesh level is in ``mesh:``).
 
-    model: ``sst`` (k-ω SST, the paper's model) or ``laminar``. wall_treatment: SST wall treatment,
-    ``automatic`` (wall functions blended with the low-Re formulation by y+) or ``low_re`` (resolved
-    to the wall, y+ ~ 1). max_iter: iteration cap. tol: scaled-residual tolerance. monitor_tol,
-    monitor_window: the solver's convergence test on the monitored C_max and blade forces (relative
-    change over that many iterations). classify_window, classify_tol: window (iterations) and relative
-    tolerance of the convergence classification (:mod:`solver.convergence`; the issue's "lift and C_max
-    stationary to 0.1 % over a window"). stall_tol: the solve also stops as converged once the monitors
-    are stationary in that sense and every scaled residual is below it (RANS residuals often stall
-    between 1e-6 and 1e-5 while the forces have settled); null: run to ``tol`` or ``max_iter``.
-    algorithm: ``simple`` or ``simplec``; alpha_u, alpha_p: momentum and pressure under-relaxation
-    (``alpha_p`` ``None``: 1 for SIMPLEC). Defaults: SIMPLE, 0.7, 0.3 — SIMPLEC (alpha_p = 1) diverged
-    within 3 iterations on the coarse blade mesh at Re = 1e6 (first cell for y+ = 1, aspect ratio
-    ~3 500), laminar and SST alike; at low Re (laminar tests) SIMPLEC with alpha_u = 0.9 is faster.
-    convection: ``linear_upwind`` (second order) or ``upwind``. initial: initial velocity field,
+    Keys of the section alone: model: ``sst`` (k-ω SST, the paper's model) or ``laminar``.
+    wall_treatment: SST wall treatment, ``automatic`` (wall functions blended with the low-Re
+    formulation by y+) or ``low_re`` (resolved to the wall, y+ ~ 1). initial: initial velocity field,
     ``freestream`` (uniform ``(C0, 0)``, the default) or ``rest`` (zero; diverged at once at Re = 1e6).
+
+    Every other key is a field of :class:`solver.SimpleSettings` (its meaning, unit and default are
+    documented there; ``docs/evaluation.md`` lists them): algorithm, alpha_u, alpha_p, convection,
+    limiter, limiter_k, max_iter, tol, monitor_tol, monitor_window, classify_window, classify_tol,
+    stall_tol, pressure_gradient, divergence_factor, velocity_limit.
     """
 
     model: Literal["sst", "laminar"] = "sst"
     wall_treatment: Literal["automatic", "low_re"] = "automatic"
-    max_iter: int = Field(2000, gt=0)
-    tol: float = Field(1e-6, gt=0)
-    monitor_tol: float = Field(1e-5, gt=0)
-    monitor_window: int = Field(20, ge=2)
-    classify_window: int = Field(200, ge=8)
-    classify_tol: float = Field(1e-3, gt=0)
-    stall_tol: float | None = Field(1e-5, gt=0)
-    algorithm: Literal["simple", "simplec"] = "simple"
-    alpha_u: float = Field(0.7, gt=0, le=1)
-    alpha_p: float | None = Field(0.3, gt=0, le=1)
-    convection: Literal["linear_upwind", "upwind"] = "linear_upwind"
     initial: Literal["freestream", "rest"] = "freestream"
 
-    @field_validator("model", "wall_treatment", "algorithm", "convection", "initial", mode="before")
+    @field_validator("*", mode="before")
     @classmethod
     def _lower(cls, v: Any) -> Any:
-        return v.lower() if isinstance(v, str) else v
+        return v.lower() if isinstance(v, str) else v    # every text key of the section is a choice
+
+    def settings(self) -> dict[str, Any]:
+        """The keys that are :class:`solver.SimpleSettings` fields, as its keyword arguments."""
+        return {name: getattr(self, name) for name in SETTING_KEYS}
+
+
+_SETTING_FIELDS = _setting_fields()
+#: The keys of the ``solver:`` section that are :class:`solver.SimpleSettings` fields.
+SETTING_KEYS = tuple(_SETTING_FIELDS)
+SolverConfig = create_model(
+    "SolverConfig",
+    __base__=_SolverBase,
+    __doc__=_SolverBase.__doc__,
+    **_SETTING_FIELDS,
+)
 
 
 class Config(_Frozen):

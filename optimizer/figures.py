@@ -16,7 +16,7 @@ import numpy as np
 
 from meshing import BOUNDARY_GROUPS
 from optimizer.evaluation import SIDES, Evaluation, WallDistribution
-from solver.convergence import classify  # TODO(B): from solver once exported
+from solver import classify
 
 if TYPE_CHECKING:
     from geometry import Profile

@@ -31,7 +31,17 @@ from meshing import Mesh2D, MeshingError, MeshQualityError, QualityReport, build
 from optimizer.config import Config, ConfigError
 from optimizer.evaluation import Artifacts, Evaluation
 from optimizer.figures import BLADE, BOTTOM, INLET, OUTLET, TOP, figures_of_merit
-from solver import SST, Fluid, MeshError, Problem, SimpleSettings, build_fvmesh, solve_steady
+from solver import (
+    SST,
+    Fluid,
+    MeshError,
+    Problem,
+    SimpleSettings,
+    build_fvmesh,
+    initial_state,
+    mapped_state,
+    solve_steady,
+)
 
 if TYPE_CHECKING:
     from solver import FlowResults, FVMesh
@@ -177,13 +187,9 @@ def boundary_conditions(config: Config) -> dict[str, Any]:
 
 
 def simple_settings(config: Config) -> SimpleSettings:
-    """:class:`solver.SimpleSettings` from the ``solver:`` section, the blade forces monitored."""
-    s = config.solver
-    changes = dict(max_iter=s.max_iter, tol=s.tol, monitor_tol=s.monitor_tol, monitor_window=s.monitor_window,
-                   monitor_groups=(BLADE,), classify_window=s.classify_window, classify_tol=s.classify_tol,
-                   stall_tol=s.stall_tol, convection=s.convection, algorithm=s.algorithm, alpha_u=s.alpha_u,
-                   alpha_p=s.alpha_p)          # None: 1 (SimpleSettings.pressure_relaxation)
-    return dataclasses.replace(SimpleSettings(), **changes)
+    """:class:`solver.SimpleSettings` from the ``solver:`` section (whose keys are its fields), the blade
+    forces monitored."""
+    return SimpleSettings(**config.solver.settings(), monitor_groups=(BLADE,))
 
 
 def solve_flow(config: Config, fvmesh: FVMesh, *, log: Log | None = None, every: int = 0,
@@ -192,9 +198,6 @@ def solve_flow(config: Config, fvmesh: FVMesh, *, log: Log | None = None, every:
     from ``warm_start`` mapped to this mesh when given). ``log`` gets the residuals every ``every``
     iterations (0: never). StageFailure ``failed`` if the problem cannot be set up; a diverged solve is
     returned (its status says so)."""
-    from solver import initial_state
-    from solver.warmstart import mapped_state
-
     s = config.solver
     say = log or (lambda _line: None)
     turbulence = {"turbulence": SST(wall_treatment=s.wall_treatment)} if s.model == "sst" else {}

@@ -116,7 +116,7 @@ def test_every_command_module_registers_its_commands(capsys):
     with pytest.raises(SystemExit):
         main(["--help"])
     out = capsys.readouterr().out
-    assert len(COMMANDS) == 4
+    assert all(callable(module.register) for module in COMMANDS)
     for command in ("profile", "space", "mesh", "evaluate", "validate"):
         assert command in out
 

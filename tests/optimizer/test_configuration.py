@@ -1,5 +1,6 @@
 """Configuration files: sections, defaults, overrides, validation messages, one way to build a config."""
 
+import dataclasses
 import re
 from pathlib import Path
 
@@ -8,7 +9,17 @@ import yaml
 
 from geometry import evaluate_blade
 from geometry.examples import TABLE4_C2_DESIGN, TABLE5_G1_TOOLPATH
-from optimizer.config import Config, ConfigError, load_config
+from optimizer.config import (
+    SETTING_KEYS,
+    SETTING_RULES,
+    SETTINGS_NOT_CONFIGURED,
+    Config,
+    ConfigError,
+    SolverConfig,
+    load_config,
+)
+from optimizer.pipeline import simple_settings
+from solver import SimpleSettings
 
 EXAMPLES = Path(__file__).parents[2] / "configs" / "examples"
 BENCH = EXAMPLES / "bench_g1_design.yaml"
@@ -92,3 +103,45 @@ def test_saved_config_reads_back_the_same():
     assert again.mesh_spec() == config.mesh_spec() and again.flow == config.flow and again.solver == config.solver
     assert again.blade == config.blade
 
+
+
+def test_solver_settings_are_the_solvers_own_with_the_blade_monitored():
+    settings = simple_settings(load_config())
+    assert settings == dataclasses.replace(SimpleSettings(), monitor_groups=("blade",))
+    changed = simple_settings(load_config(overrides=["solver.alpha_u=0.5", "solver.max_iter=7"]))
+    assert (changed.alpha_u, changed.max_iter) == (0.5, 7)
+
+
+def test_solver_section_defaults_are_the_simple_settings_defaults():
+    defaults = SimpleSettings()
+    assert SolverConfig().settings() == {k: getattr(defaults, k) for k in SETTING_KEYS}
+    fields = {f.name for f in dataclasses.fields(SimpleSettings)}
+    # every field is a key of the section or is left out for a stated reason
+    assert fields == set(SETTING_KEYS) | set(SETTINGS_NOT_CONFIGURED)
+    assert set(SETTING_RULES) <= set(SETTING_KEYS)
+
+
+def test_solver_section_choices_are_the_solver_registries():
+    from solver.assembly import CONVECTION_SCHEMES
+    from solver.gradient import LIMITERS
+    from solver.simple import ALGORITHMS, PRESSURE_GRADIENTS
+
+    registries = {"algorithm": ALGORITHMS, "convection": CONVECTION_SCHEMES, "limiter": LIMITERS,
+                  "pressure_gradient": PRESSURE_GRADIENTS}
+    for key, registry in registries.items():
+        assert set(SETTING_RULES[key]["choices"]) == set(registry), key
+    text_keys = {k for k in SETTING_KEYS if isinstance(getattr(SimpleSettings(), k), str)}
+    assert text_keys == set(registries)
+
+
+@pytest.mark.parametrize("override,message", [
+    ("solver.limiter=minmod", "'solver.limiter' = 'minmod' is not allowed; allowed: "),
+    ("solver.divergence_factor=0.5", "'solver.divergence_factor': Input should be greater than 1"),
+    ("solver.momentum_solver=amg", "unknown key 'solver.momentum_solver'; allowed: model, wall_treatment, initial"),
+    ("solver.alpha_p=0", "'solver.alpha_p': Input should be greater than 0"),
+])
+def test_generated_solver_keys_are_validated_with_the_key_named(override, message):
+    with pytest.raises(ConfigError, match=re.escape(message)):
+        load_config(overrides=[override])
+    assert load_config(overrides=["solver.Limiter=Barth_Jespersen".lower()]).solver.limiter == "barth_jespersen"
+    assert load_config(overrides=["solver.alpha_p=null"]).solver.alpha_p is None
