@@ -115,7 +115,7 @@ def resample_wall(profile, spec: MeshSpec) -> tuple[np.ndarray, np.ndarray]:
     :func:`wall_spacing`, whose largest value is chosen so that there are about ``spec.wall_nodes``.
     """
     pts = np.asarray(profile.points, dtype=float)
-    chord = float(profile.spec["L"])
+    chord = profile.chord
     corner_mask = np.abs(_turning(pts)) > math.radians(CORNER_TURN_DEG)
     corner_mask[[0, profile.te_index]] = True
     dense, dense_of = _densify(pts, 1e-3 * chord)
@@ -157,7 +157,7 @@ def resample_wall(profile, spec: MeshSpec) -> tuple[np.ndarray, np.ndarray]:
 def offset_hull(profile, spec: MeshSpec) -> shapely.Polygon:
     """Convex hull (shapely polygon, m) of the profile offset by ``side_offset`` chords, and by
     ``te_offset`` chords around the trailing-edge segment."""
-    chord = float(profile.spec["L"])
+    chord = profile.chord
     blade = shapely.Polygon(profile.points).buffer(0)
     te = shapely.LineString(profile.trailing_edge)
     region = shapely.union(blade.buffer(spec.side_offset * chord, quad_segs=16),
@@ -437,8 +437,9 @@ def even_out_ring(layers: np.ndarray, fraction: np.ndarray, sigma: float | None 
     (default ``RING_SMOOTH``);
     layer j's relative spacing ``a_j`` is multiplied by ``(a* / a_ring)^b_j`` (then normalised), ``a*`` the
     smoothed ring spacing and ``b_j = ((mean(fraction_j) - f0) / (1 - f0))²`` clipped to [0, 1],
-    ``f0 = RING_BLEND_START``: the layers within ``f0`` of the wall are untouched, the spacings stay positive so the order of
-    the nodes is kept, and each node moves only as far as the local change of ring spacing asks. Ray 0 stays in place.
+    ``f0 = RING_BLEND_START``: the layers within ``f0`` of the wall are untouched, the spacings stay positive
+    so the order of the nodes is kept, and each node moves only as far as the local change of ring spacing
+    asks. Ray 0 stays in place.
     """
     sigma = RING_SMOOTH if sigma is None else sigma
     rays, n, _ = layers.shape
@@ -464,7 +465,7 @@ def even_out_ring(layers: np.ndarray, fraction: np.ndarray, sigma: float | None 
 
 def o_layer(profile, spec: MeshSpec, gmsh) -> dict:
     """The structured O-layer: points, quads, fan triangles, wall node count, ring node indices."""
-    chord = float(profile.spec["L"])
+    chord = profile.chord
     h0 = spec.first_cell_height(chord)
     wall, is_corner = resample_wall(profile, spec)
     seg = np.linalg.norm(np.roll(wall, -1, axis=0) - wall, axis=1)
@@ -519,7 +520,7 @@ def o_layer(profile, spec: MeshSpec, gmsh) -> dict:
 
 def domain_box(profile, spec: MeshSpec) -> tuple[float, float, float, float]:
     """(xmin, xmax, ymin, ymax) of the rectangular domain, m (see :class:`MeshSpec`)."""
-    chord = float(profile.spec["L"])
+    chord = profile.chord
     lo, hi = profile.points.min(axis=0), profile.points.max(axis=0)
     yc = 0.5 * (lo[1] + hi[1])
     return (lo[0] - spec.upstream * chord, hi[0] + spec.downstream * chord,
@@ -639,7 +640,7 @@ def build_mesh(profile, spec: MeshSpec | None = None) -> Mesh2D:
     MeshingError if a step fails. Quality is not checked here: see :func:`meshing.check_quality`.
     """
     spec = spec or MeshSpec()
-    chord = float(profile.spec["L"])
+    chord = profile.chord
     t0 = time.perf_counter()
     gmsh, owner = _gmsh_start()
     try:

@@ -102,7 +102,7 @@ def test_wall_nodes_lie_on_the_profile_and_keep_its_corners(case):
 
 def test_first_cell_height_and_growth(case):
     profile, mesh = case
-    h0 = COARSE.first_cell_height(profile.spec["L"])
+    h0 = COARSE.first_cell_height(profile.chord)
     assert h0 == pytest.approx(2.3e-6, rel=0.05)  # water, 10 m/s, 0.1 m chord, y+ = 1
     assert first_cell_height(2.0, 10.0, 0.1, 1e-6) == pytest.approx(2 * h0)
     assert mesh.info["first_cell_height"] == h0
