@@ -367,6 +367,19 @@ def _is_executing(key: str, dask_worker=None) -> bool:
     return any(ts.key == key for ts in dask_worker.state.executing)
 
 
+async def _kill_worker_process(dask_worker=None) -> None:
+    """SIGKILL the worker process (run on it through ``Client.run``): its nanny starts a fresh one.
+
+    A stuck Python thread cannot be stopped from outside; ``Client.restart_workers`` asks the nanny for a
+    graceful restart that can block the caller for minutes on a loaded machine, while a killed process is
+    replaced at once, as after any worker crash. A coroutine: ``Client.run(..., wait=False)`` takes only
+    those.
+    """
+    import signal
+
+    os.kill(os.getpid(), signal.SIGKILL)
+
+
 @dataclass
 class _Attempt:
     """One submission of a task: its dask key, how many losses came before, when it was submitted."""
@@ -562,7 +575,7 @@ class DaskRunner(Runner):
             if busy is True:
                 log.warning("worker %s still runs timed-out task %s; restarting it", worker, key)
                 self._restarted.add(worker)
-                self.client.restart_workers([worker], raise_for_error=False)
+                self.client.run(_kill_worker_process, workers=[worker], wait=False)
 
 
 class LocalRunner(DaskRunner):
