@@ -73,7 +73,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--level", default="coarse")
     ap.add_argument("--max-iter", type=int, default=None, help="cap the solver iterations (default: config's)")
     ap.add_argument("--workers", type=int, nargs="+", default=[1, 2])
-    ap.add_argument("--per-worker", type=int, default=2, help="evaluations per worker")
+    ap.add_argument("--per-worker", type=int, default=2, help="evaluations per worker (0: overhead only)")
     ap.add_argument("--noop", type=int, default=400, help="no-op tasks for the overhead (0: skip)")
     ap.add_argument("--timeout", type=float, default=3600.0)
     ap.add_argument("--json", type=Path, default=None, help="also write the figures here")
@@ -93,7 +93,7 @@ def main(argv: list[str] | None = None) -> int:
               f"(median latency {statistics.median(noop_run['task_s']) * 1e3:.1f} ms)")
 
     payload = blade_payload(args.config, args.level, args.max_iter)
-    for workers in args.workers:
+    for workers in args.workers if args.per_worker else ():
         run = run_batch(workers, evaluate_payload, [payload] * (workers * args.per_worker), args.timeout)
         out["runs"].append(run)
         print(f"{workers} worker(s): {run['tasks']} {args.level} evaluations in {run['wall_s']:.1f} s -> "

@@ -404,6 +404,7 @@ class DaskRunner(Runner):
         self._started: dict[str, tuple[float, str]] = {}  # dask key -> (monotonic start, worker)
         self._stuck: dict[str, tuple[str, float]] = {}  # cancelled key -> (worker, when to check it)
         self._restarted: set[str] = set()  # workers this runner restarted (their losses are not retries)
+        self._threads_n, self._threads_at = 0, -math.inf  # cached worker-thread count and when it was asked
 
     # ---- cluster lifecycle ------------------------------------------------------------------------
 
@@ -448,17 +449,17 @@ class DaskRunner(Runner):
         if self.client is None:
             raise RuntimeError("runner not started: use it as a context manager ('with runner: ...')")
         fn_pickle = cloudpickle.dumps(fn)
-        ac = as_completed()
+        ac = as_completed(with_results=True, raise_errors=False)  # results fetched in the client's event loop
         waiting: deque[tuple[Task, int]] = deque((task, 0) for task in tasks)  # (task, losses so far)
         pending: dict = {}  # future -> _Attempt
         try:
             while waiting or pending:
                 self._submit_to_free_threads(fn_pickle, waiting, pending, ac)
                 self._wait_for_completion(ac)
-                for future in ac.next_batch(block=False):
+                for future, value in ac.next_batch(block=False):
                     attempt = pending.pop(future, None)
                     if attempt is not None:  # None: a future this runner cancelled on timeout
-                        result = self._settle(future, attempt, waiting)
+                        result = self._settle(future, value, attempt, waiting)
                         if result is not None:
                             yield result
                 yield from self._expire(pending)
@@ -477,7 +478,7 @@ class DaskRunner(Runner):
         """
         if not waiting:
             return
-        free = sum(self.client.nthreads().values()) - len(self._stuck) - len(pending)
+        free = self._threads() - len(self._stuck) - len(pending)
         for _ in range(min(free, len(waiting))):
             task, losses = waiting.popleft()
             key = f"millfoil-{task.key}-{losses}-{uuid.uuid4().hex[:8]}"
@@ -485,6 +486,18 @@ class DaskRunner(Runner):
                                         pure=False)
             pending[future] = _Attempt(task, key, losses, time.monotonic())
             ac.add(future)
+
+    def _threads(self) -> int:
+        """Worker threads connected, asked of the scheduler at most every :data:`POLL_S` seconds.
+
+        A stale count (a worker lost in the last fraction of a second) costs at most one task queued on the
+        scheduler; asking on every completion would cost a round trip per task.
+        """
+        now = time.monotonic()
+        if now - self._threads_at > POLL_S:
+            self._threads_n = sum(self.client.nthreads().values())
+            self._threads_at = now
+        return self._threads_n
 
     @staticmethod
     def _wait_for_completion(ac) -> None:
@@ -502,8 +515,12 @@ class DaskRunner(Runner):
         start, worker = self._started.get(attempt.key, (attempt.submitted, ""))
         return time.monotonic() - start, worker
 
-    def _settle(self, future, attempt: _Attempt, waiting: deque) -> TaskResult | None:
-        """The result of a completed future, or None if the task was resubmitted after a worker loss."""
+    def _settle(self, future, value, attempt: _Attempt, waiting: deque) -> TaskResult | None:
+        """The result of a completed future, or None if the task was resubmitted after a worker loss.
+
+        ``value``: what ``as_completed(with_results=True)`` fetched: ``_execute``'s dict if the future
+        finished, the exception otherwise.
+        """
         seconds, worker = self._elapsed(attempt)
         self._started.pop(attempt.key, None)
         task = attempt.task
@@ -521,9 +538,8 @@ class DaskRunner(Runner):
         if future.status == "error":
             return TaskResult(task.key, task.generation, None, "error", _describe(future.exception()), worker,
                               seconds, attempt.losses + 1)
-        out = future.result()
-        status, reason = ("error", out["error"]) if out["error"] else ("done", "")
-        return TaskResult(task.key, task.generation, out["record"], status, reason, out["worker"], seconds,
+        status, reason = ("error", value["error"]) if value["error"] else ("done", "")
+        return TaskResult(task.key, task.generation, value["record"], status, reason, value["worker"], seconds,
                           attempt.losses + 1)
 
     def _loss(self, future) -> tuple[str, str, int] | None:
