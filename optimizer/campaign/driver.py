@@ -114,7 +114,7 @@ def run_campaign(config: CampaignConfig, directory: str | Path | None = None, *,
     directory.mkdir(parents=True, exist_ok=True)
     (directory / "config.yaml").write_text(config.to_yaml())
     problem = make_problem(config)
-    with Store(path) as store:
+    with Store(path, sync=config.output.sync) as store:
         store.start_campaign(config.to_yaml(), config.algorithm.seed, problem.version)
         return _run(config, problem, store, directory, runner, fn, progress, log)
 
@@ -133,6 +133,7 @@ def resume_campaign(directory: str | Path, *, runner=None, fn: Callable[[dict], 
         if row is None:
             raise CampaignError(f"{path} holds no campaign (it never started)")
         config = saved_config(row.config, execution)
+        store.set_sync(config.output.sync)
         problem = make_problem(config)
         if problem.version != row.version and log:
             log(f"the campaign started with millfoil {row.version}, this is {problem.version}: its stored "
@@ -237,7 +238,8 @@ class _Loop:
         algorithm = self._algorithm(np.zeros((1, self.problem.n_var)))
         rows = self.store.get_many(last.members)
         pop = self._population([rows[k] for k in last.members])
-        pop.set("rank", np.asarray(last.rank), "crowding", np.asarray(last.crowding, float))
+        # infeasible members have no rank or crowding (None): NSGA-II compares them by violation only
+        pop.set("rank", _objects(last.rank), "crowding", _objects(last.crowding))
         algorithm.pop = pop
         algorithm.is_initialized = True
         algorithm.n_iter = last.generation + 2     # pymoo counts the initial generation as 1, then advances
@@ -346,8 +348,8 @@ class _Loop:
         members = [self.problem.key(x) for x in X]
         hv = self._hypervolume(pop)
         self.store.add_generation(GenerationRow(
-            generation=g, members=members, rank=[int(r) for r in pop.get("rank")],
-            crowding=[float(c) for c in pop.get("crowding")], offspring=[r.key for r in rows],
+            generation=g, members=members, rank=[_maybe(int, r) for r in pop.get("rank")],
+            crowding=[_maybe(float, c) for c in pop.get("crowding")], offspring=[r.key for r in rows],
             feasible_offspring=counts["feasible"], feasible_share=counts["feasible"] / len(rows) if rows else None,
             cache_hits=counts["cached"], hypervolume=hv, rng_state=algorithm.random_state.bit_generator.state))
         state = GenerationProgress(g, self.algorithm_config.generations, total=len(rows), cached=counts["cached"],
@@ -415,6 +417,17 @@ class _Loop:
         per = float(np.mean(self.evaluation_seconds)) / max(workers, 1)
         per_generation = per * (self.algorithm_config.offspring or self.algorithm_config.population)
         return per * remaining_tasks + per_generation * max(left - 1, 0)
+
+
+def _maybe(kind, v):
+    """``kind(v)``, or None for None (pymoo leaves rank and crowding unset on infeasible members)."""
+    return None if v is None else kind(v)
+
+
+def _objects(values: list) -> np.ndarray:
+    out = np.empty(len(values), dtype=object)
+    out[:] = values
+    return out
 
 
 def _task(key: str, payload: dict, generation: int):

@@ -218,9 +218,10 @@ class Store:
 
     ``Store(path)`` opens (creating the tables if needed) for writing — only the driver does that;
     ``Store(path, readonly=True)`` opens an existing store for reading, safe while the driver runs.
+    ``sync``: ``full`` (default) or ``normal``, SQLite's ``synchronous`` (see ``output.sync``).
     """
 
-    def __init__(self, path: str | Path, *, readonly: bool = False):
+    def __init__(self, path: str | Path, *, readonly: bool = False, sync: str = "full"):
         self.path = Path(path)
         if readonly:
             if not self.path.exists():
@@ -230,8 +231,11 @@ class Store:
             self.path.parent.mkdir(parents=True, exist_ok=True)
             self._db = sqlite3.connect(self.path, timeout=30.0)
             self._db.execute("PRAGMA journal_mode=WAL")
-            # FULL: a finished evaluation survives a power cut too, at a cost (ms) far below a solve's.
-            self._db.execute("PRAGMA synchronous=FULL")
+            # FULL: a finished evaluation survives a power cut of the driver's machine too, for one fsync
+            # (~10 ms) per evaluation, far below a solve; NORMAL: it survives the driver's death (SIGKILL).
+            if sync not in ("full", "normal"):
+                raise ValueError(f"sync must be 'full' or 'normal', got {sync!r}")
+            self._db.execute(f"PRAGMA synchronous={sync.upper()}")
             version = self._db.execute("PRAGMA user_version").fetchone()[0]
             if version not in (0, SCHEMA_VERSION):
                 raise RuntimeError(f"{self.path}: store schema {version}, this millfoil reads {SCHEMA_VERSION}")
@@ -242,6 +246,12 @@ class Store:
         self.readonly = readonly
 
     # --------------------------------------------------------------------------------------- lifecycle
+    def set_sync(self, sync: str) -> None:
+        """Change SQLite's ``synchronous`` level (``full`` or ``normal``) of this connection."""
+        if sync not in ("full", "normal"):
+            raise ValueError(f"sync must be 'full' or 'normal', got {sync!r}")
+        self._db.execute(f"PRAGMA synchronous={sync.upper()}")
+
     def close(self) -> None:
         self._db.close()
 
