@@ -68,3 +68,20 @@ def test_job_script_carries_lifetimes_pinned_threads_and_options(slurm, tmp_path
     assert f"#SBATCH -J {execution['cluster']['job_name']}" in script
     assert "export OMP_NUM_THREADS=1" in script and "echo prologue" in script
     assert "--lifetime 3000s --lifetime-stagger 300s" in script and "--nthreads 1" in script
+
+
+def test_workers_retire_before_their_wall_time_and_new_jobs_take_over(slurm, tmp_path):
+    # lifetime 12 s ± 1 s against 8 tasks of 3 s on one single-worker job: the worker retires mid-batch
+    execution = slurm.execution(tmp_path / "jobs", workers=1, retries=3, timeout=120)
+    execution["cluster"] |= {"lifetime": "12s", "lifetime_stagger": "1s"}
+    tasks = [Task(f"t{i}", {"s": 3.0, "marker": str(tmp_path / "started")}, 0) for i in range(8)]
+    jobs_seen: set[str] = set()
+    with make_runner(execution) as runner:
+        results = []
+        for result in runner.run(sleep_and_mark, tasks):
+            results.append(result)
+            jobs_seen |= set(slurm.jobs(execution))
+    assert sorted(r.key for r in results) == sorted(t.key for t in tasks)
+    assert all(r.status == "done" for r in results)
+    assert len(jobs_seen) >= 2, "the retired worker's job was replaced by a new one"
+    assert len({r.worker for r in results}) >= 2
