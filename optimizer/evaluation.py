@@ -12,9 +12,14 @@ import json
 import math
 from dataclasses import dataclass, field, fields
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from geometry import Profile
+    from meshing import Mesh2D
+    from solver import FlowResults
 
 #: Stages in pipeline order; :attr:`Evaluation.seconds` has one entry per stage that ran.
 STAGES = ("geometry", "mesh", "solve", "post")
@@ -80,9 +85,9 @@ class Artifacts:
         e.g. a warm start for the next evaluation); or None.
     """
 
-    profile: Any = None
-    mesh: Any = None
-    flow: Any = None
+    profile: Profile | None = None
+    mesh: Mesh2D | None = None
+    flow: FlowResults | None = None
 
     def merged(self, other: Artifacts) -> Artifacts:
         """These artifacts with those that ``other`` has (not None) added or replaced."""

@@ -7,14 +7,10 @@ individual (infeasible blade, mesh below the quality thresholds, diverged solve)
 evaluation records the stage that failed and why. Its stages are plain functions that raise
 :class:`StageFailure` for such a blade, so that a command can run one of them alone (``millfoil mesh``):
 
-========  =====================================  ==========================================
-stage     function                               builds
-========  =====================================  ==========================================
-geometry  :func:`build_blade`, :func:`blade_profile`  the profile and its feasibility
-mesh      :func:`blade_mesh`, :func:`finite_volume_mesh`  hybrid mesh (quality-checked), FV mesh
-solve     :func:`solve_flow`                     :class:`solver.FlowResults`
-post      :func:`optimizer.figures.figures_of_merit`  the figures
-========  =====================================  ==========================================
+* geometry: :func:`blade_profile` (:func:`build_blade`) — the profile of a feasible blade;
+* mesh: :func:`blade_mesh` (hybrid mesh, quality-checked), :func:`finite_volume_mesh` — the solver's mesh;
+* solve: :func:`solve_flow` — a :class:`solver.FlowResults`;
+* post: :func:`optimizer.figures.figures_of_merit` — the figures.
 
 See ``docs/evaluation.md``.
 """
@@ -72,7 +68,7 @@ def evaluate(config: Config, *, log: Log | None = None, every: int = 50,
     log: called with one line of progress per stage start/end and every ``every`` solver iterations.
     warm_start: a :class:`solver.FlowResults` of another blade in the same flow (e.g. the previous
         evaluation's ``artifacts.flow``): the solve starts from its fields transferred to this mesh
-        (:func:`solver.mapped_state`) instead of ``solver.initial``.
+        (:func:`solver.mapped_state`) instead of the ``solver.initial`` field.
     An unexpected exception in a stage is recorded as ``failed`` with its type and message, so that a
     campaign goes on.
     """
