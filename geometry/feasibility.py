@@ -8,8 +8,8 @@ Constraints, in the order of :func:`constraint_names`:
   is at least the cutter radius (Eq. 22, with the printed ‖Q̈‖³ read as ‖Q̇‖³), otherwise the offset loops.
 * ``sides_simple`` = +1 if the closed blade outline (design) or cutter path (tool path) crosses itself or
   runs clockwise (sides swapped), else −1.
-* ``machined_intact`` (tool-path mode) = +1 if the machined blade splits, vanishes or self-intersects,
-  else −1.
+* ``machined_intact`` (tool-path mode) = +1 if the machined blade splits, vanishes, self-intersects or has
+  machined surface the N-buffer could not link into its outline, else −1.
 
 Each constraint carries a reason that names the figure behind it, so an optimiser log or report can say
 why an individual was rejected.

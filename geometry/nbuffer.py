@@ -15,8 +15,12 @@ boundary is computed the N-buffer way (Jerard et al. 1989; Vessaz et al. 2013, �
    Because the boundary of the swept region consists of own tips only, the machined surface is the
    sequence of uncut tips in path order.
 3. *Corners*: where uncut and cut needles meet, the needle parameter is bisected until the tips are
-   closer than the tolerance, which puts a vertex on the corner where two envelope branches intersect.
-   Where the two ends of a cut stretch do not meet, material vanished between them: the part split.
+   closer than the tolerance, then the corner where the two envelope branches intersect is solved for
+   exactly (the bisection alone can miss a sharp tip by (ε/4)/sin θ, θ the angle of the branches).
+4. *Linking*: runs of uncut needles are linked end to start at their corners into closed outlines. Where
+   the two ends of a cut stretch do not meet, material vanished between them, and a second closed
+   outline is a second piece: the part split. A run left over is dropped only as the tail of an offset
+   loop (cut by denser cutter positions, or outside the stock); any other is reported as unlinked.
 
 Resolution comes from the tolerance ε: needles are spread so that the polyline through the tips has a
 chord sagitta ≤ ε/2 on the envelope, cutter positions so that the scallop between two of them
@@ -58,6 +62,11 @@ class _Fan:
         n = int(np.ceil(sweep * max(np.sqrt(radius / (8 * tolerance)), radius / max_spacing)))
         return np.linspace(0.0, 1.0, max(n, 1) + 1)
 
+    def tip_derivative(self, u: Array, radius: float) -> Array:
+        """d(tip)/du of the tips centre + R (cos θ, sin θ), m per unit parameter."""
+        theta = self.theta0 + (self.theta1 - self.theta0) * u
+        return radius * (self.theta1 - self.theta0) * np.stack([-np.sin(theta), np.cos(theta)], 1)
+
 
 @dataclass(frozen=True)
 class _Segment:
@@ -72,6 +81,10 @@ class _Segment:
         u = np.linspace(0.0, 1.0, DENSE)
         return equidistribute(u, chord_density(self.curve, u, tolerance, max_spacing, offset=radius))
 
+    def tip_derivative(self, u: Array, radius: float) -> Array:
+        """d(tip)/du of the offset Q + R ν: Q' (1 − R κ), since dν/du = −κ |Q'| t (κ signed, left > 0)."""
+        return self.curve.derivative(u, 1) * (1.0 - radius * self.curve.curvature(u))[:, None]
+
 
 @dataclass(frozen=True)
 class MachinedBoundary:
@@ -79,16 +92,26 @@ class MachinedBoundary:
 
     Attributes
     ----------
-    points: ``(n, 2)`` counter-clockwise machined boundary, metres, first point not repeated.
+    points: ``(n, 2)`` counter-clockwise machined boundary, metres, first point not repeated. It starts at
+        the point where the path's first piece begins (σ = 0; for a blade, the pressure-side trailing-edge
+        corner) or, if the cutter removed that point, the first machined point after it.
     piece: ``(n,)`` index of the tool-path piece whose cutter left each point (a corner arc counts for
         the piece it follows).
     sigma: ``(n,)`` position along the path: piece index + parameter of the piece, in [0, len(pieces)];
-        points on a corner arc take the junction's value.
+        points on a corner arc take the junction's value. A corner shared by two envelope branches takes
+        the label nearest a piece junction (so the blade's corners read σ = 0, 1, 2).
     gouged_fraction: share of needles whose own tip was removed by another cutter position.
     split: True if the material left is not one piece: two ends of a removed stretch do not meet, or
-        uncut needles form a second closed loop.
-    gaps: ``(k, 2, 2)`` end points of the removed stretches that do not close (empty unless ``split``).
-    spurious_runs: uncut stretches dropped as tails of an offset loop (path tighter than R).
+        uncut needles form a second closed outline.
+    pieces: number of closed outlines found (1 for an intact part).
+    other_outlines: the closed outlines of the further pieces of a split part, each ``(k, 2)``
+        counter-clockwise, metres, first point not repeated.
+    gaps: ``(k, 2, 2)`` end points of the removed stretches that do not close, or a point of each further
+        outline twice (empty unless ``split``).
+    unlinked: ``(k, 2)`` a point of each stretch of machined surface that could not be linked into any
+        closed outline (empty for a sound result; otherwise the boundary is undetermined).
+    spurious_runs: uncut stretches dropped as tails of an offset loop (path tighter than R): they survive
+        only in the scallop between two discrete cutter positions and are cut by 16 times denser ones.
     cutter_positions: number of discrete cutter positions used.
     """
 
@@ -97,9 +120,17 @@ class MachinedBoundary:
     sigma: Array
     gouged_fraction: float
     split: bool
+    pieces: int
+    other_outlines: tuple[Array, ...]
     gaps: Array
+    unlinked: Array
     spurious_runs: int
     cutter_positions: int
+
+    @property
+    def intact(self) -> bool:
+        """One closed outline, nothing left over: the machined part is a single piece."""
+        return self.points.shape[0] >= 3 and not self.split and self.unlinked.shape[0] == 0
 
 
 def machine(pieces: list[BezierCurve], radius: float, tolerance: float = 1e-6,
@@ -118,27 +149,30 @@ def machine(pieces: list[BezierCurve], radius: float, tolerance: float = 1e-6,
     piece_id, u = _needle_samples(needles, radius, tolerance / 2, max_spacing)
     kept = _uncut(tree, _tips(needles, piece_id, u, radius), radius, tolerance)
     if not kept.any():
-        return MachinedBoundary(np.empty((0, 2)), np.empty(0, int), np.empty(0), 1.0, True,
-                                np.empty((0, 2, 2)), 0, len(cutters))
+        return MachinedBoundary(np.empty((0, 2)), np.empty(0, int), np.empty(0), 1.0, True, 0,
+                                (), np.empty((0, 2, 2)), np.empty((0, 2)), 0, len(cutters))
     runs = _uncut_runs(needles, tree, piece_id, u, kept, radius, tolerance)
-    chain, closed, extra = _chain(runs, tolerance)
+    chain, closed, extra = _chain(runs, _Corners(needles, tree, radius, tolerance))
+    linked = set(chain.runs).union(*(loop.runs for loop in extra))
+    leftover = [k for k in range(len(runs)) if k not in linked]
+    unlinked = _machined_leftovers(runs, leftover, pieces, radius, tolerance)
 
-    ids = np.concatenate([runs[k].ids for k in chain])
-    loc = np.concatenate([runs[k].params for k in chain])
-    points = _merge_corners([runs[k].points for k in chain], closed)
-    keep = _deduplicate(points, tolerance / 100)
-    ids, loc, points = ids[keep], loc[keep], points[keep]
-
+    ids, loc, points = chain.joined(runs)
+    keep, owner = _deduplicate(points, tolerance / 100)
     is_fan = np.array([isinstance(n, _Fan) for n in needles])[ids]
-    path_sigma = np.mod(source[ids] + np.where(is_fan, 1.0, loc), len(pieces))
-    first = int(np.argmin(path_sigma))
-    points, ids, path_sigma = (np.roll(a, -first, axis=0) for a in (points, ids, path_sigma))
+    sigma = np.mod(source[ids] + np.where(is_fan, 1.0, loc), len(pieces))
+    label = _corner_labels(sigma, owner, keep.size)
+    points, ids, sigma = points[keep], ids[label], sigma[label]
+    first = int(np.argmin(np.minimum(sigma, len(pieces) - sigma)))  # nearest σ = 0, cyclically
+    points, ids, sigma = (np.roll(a, -first, axis=0) for a in (points, ids, sigma))
 
-    gaps = [] if closed else [np.stack([runs[chain[-1]].end, runs[chain[0]].start])]
-    gaps += [np.stack([runs[loop[0]].start, runs[loop[-1]].end]) for loop in extra]
-    spurious = len(runs) - len(chain) - sum(len(loop) for loop in extra)
-    return MachinedBoundary(points, source[ids], path_sigma, float(1.0 - kept.mean()),
-                            bool(gaps), np.array(gaps).reshape(-1, 2, 2), spurious, len(cutters))
+    gaps = [] if closed else [np.stack([runs[chain.runs[-1]].end, runs[chain.runs[0]].start])]
+    gaps += [np.stack([runs[loop.runs[0]].start] * 2) for loop in extra]
+    return MachinedBoundary(points, source[ids], sigma, float(1.0 - kept.mean()), bool(gaps),
+                            int(closed) + len(extra), tuple(_outline(loop, runs, tolerance) for loop in extra),
+                            np.array(gaps).reshape(-1, 2, 2),
+                            np.array([runs[k].points[runs[k].size // 2] for k in unlinked]).reshape(-1, 2),
+                            len(leftover) - len(unlinked), len(cutters))
 
 
 @dataclass(frozen=True)
@@ -162,6 +196,11 @@ class _Run:
         return self.params.size
 
 
+def _outline(chain: _Chain, runs: list[_Run], tolerance: float) -> Array:
+    points = chain.joined(runs)[2]
+    return points[_deduplicate(points, tolerance / 100)[0]]
+
+
 def _uncut_runs(needles, tree, piece_id, u, kept, radius, tolerance) -> list[_Run]:
     """Split the cyclic sequence of needles into runs of uncut ones, in path order."""
     n = u.size
@@ -183,61 +222,199 @@ def _uncut_runs(needles, tree, piece_id, u, kept, radius, tolerance) -> list[_Ru
     return runs
 
 
-def _chain(runs: list[_Run], tolerance: float) -> tuple[list[int], bool, list[list[int]]]:
+@dataclass(frozen=True)
+class _Corner:
+    """Where a run ends and the next one starts: the point and the parameters of both needles there."""
+
+    point: Array
+    u_end: float  # on the last needle piece of the run that ends here
+    u_start: float  # on the first needle piece of the run that starts here
+
+
+_CORNER_REACH = 64.0  # tolerances: how far a bisected run end may lie from the exact corner it belongs to
+_NEWTON_STEPS = 30
+
+
+@dataclass(frozen=True)
+class _Corners:
+    """Finds the run that follows a run's end, and the exact corner where the two meet.
+
+    The bisection pins a run end to within tolerance/8 of where its needles' status changes, but that
+    status comes from discrete cutter positions whose scallop is tolerance/4 deep: where two envelope
+    branches meet at an angle θ, the change can lie (tolerance/4)/sin θ along the branch from the true
+    corner, several micrometres at a sharp tip. The corner is therefore solved for exactly, as the
+    intersection of the two branches (the tip curves of the run's last and the next run's first needle
+    piece), by Newton's method from the bisected parameters.
+    """
+
+    needles: list
+    tree: cKDTree
+    radius: float
+    tolerance: float
+
+    def successor(self, runs: list[_Run], k: int, candidates: list[int]) -> tuple[int, _Corner] | None:
+        """The first candidate, in path order after ``k``, whose start is the end of run ``k``.
+
+        First choice: a start within the tolerance of the end (its corner refined when the branches
+        intersect there). Otherwise: a start within reach of an exact corner of the two branches (a sharp
+        tip). ``None`` if no run starts there: the part is split or the boundary undetermined.
+        """
+        m = len(runs)
+        order = [j % m for j in range(k + 1, k + m + 1) if j % m in candidates]
+        gap = {j: float(np.linalg.norm(runs[j].start - runs[k].end)) for j in order}
+        for j in order:
+            if gap[j] <= self.tolerance:
+                exact = self.exact(runs[k], runs[j])
+                return j, exact or _Corner(0.5 * (runs[k].end + runs[j].start), runs[k].params[-1], runs[j].params[0])
+        for j in order:
+            if gap[j] <= _CORNER_REACH * self.tolerance and (exact := self.exact(runs[k], runs[j])) is not None:
+                return j, exact
+        return None
+
+    def exact(self, a: _Run, b: _Run) -> _Corner | None:
+        """The intersection of the branches of a's last and b's first needle, or ``None`` if Newton's
+        method does not find one on both needle pieces, within reach of both ends and left uncut."""
+        na, nb = self.needles[a.ids[-1]], self.needles[b.ids[0]]
+        ua, ub = float(a.params[-1]), float(b.params[0])
+        for _ in range(_NEWTON_STEPS):
+            f = self._tip(na, ua) - self._tip(nb, ub)
+            if np.linalg.norm(f) <= 1e-3 * self.tolerance:
+                break
+            da = na.tip_derivative(np.array([ua]), self.radius)[0]
+            db = nb.tip_derivative(np.array([ub]), self.radius)[0]
+            det = cross(da, -db)
+            if not abs(det) > 1e-9 * np.linalg.norm(da) * np.linalg.norm(db):
+                return None  # tangent branches (or a degenerate tip curve): no isolated corner
+            ua, ub = ua + cross(-f, -db) / det, ub + cross(da, -f) / det
+            if not (-1.0 < ua < 2.0 and -1.0 < ub < 2.0):
+                return None
+        else:
+            return None
+        if not (-1e-9 <= ua <= 1.0 + 1e-9 and -1e-9 <= ub <= 1.0 + 1e-9):
+            return None  # the branches meet beyond a needle piece: not this corner
+        ua, ub = min(max(ua, 0.0), 1.0), min(max(ub, 0.0), 1.0)
+        point = 0.5 * (self._tip(na, ua) + self._tip(nb, ub))
+        reach = _CORNER_REACH * self.tolerance
+        if max(np.linalg.norm(point - a.end), np.linalg.norm(point - b.start)) > reach:
+            return None
+        if not _uncut(self.tree, point[None], self.radius, self.tolerance)[0]:
+            return None  # a third branch cuts the crossing: the corner lies elsewhere
+        return _Corner(point, ua, ub)
+
+    def _tip(self, needle, u: float) -> Array:
+        base, normal = needle.frame(np.array([u]))
+        return base[0] + self.radius * normal[0]
+
+
+@dataclass(frozen=True)
+class _Chain:
+    """Runs linked end to start, with the corner after each (the last one only if ``closed``)."""
+
+    runs: list[int]
+    corners: list[_Corner]
+    closed: bool
+
+    def joined(self, runs: list[_Run]) -> tuple[np.ndarray, Array, Array]:
+        """Needle pieces, parameters and points of the chained runs, each run's end and its successor's
+        start put on their common corner (both labels kept: the corner belongs to both branches)."""
+        parts = [(runs[k].ids, runs[k].params.copy(), runs[k].points.copy()) for k in self.runs]
+        for i, corner in enumerate(self.corners):
+            (_, u_end, end), (_, u_start, start) = parts[i], parts[(i + 1) % len(parts)]
+            u_end[-1], u_start[0] = corner.u_end, corner.u_start
+            end[-1] = corner.point
+            start[0] = corner.point
+        return tuple(np.concatenate(column) for column in zip(*parts, strict=True))
+
+    def area(self, runs: list[_Run]) -> float:
+        points = np.vstack([runs[k].points for k in self.runs])
+        return abs(0.5 * np.sum(cross(points, np.roll(points, -1, axis=0))))
+
+
+def _chain(runs: list[_Run], corners: _Corners) -> tuple[_Chain, bool, list[_Chain]]:
     """Link runs end-to-start into the boundary of the machined part.
 
     Starting from the longest run, each run is followed by the next one in path order whose start is
-    its end (the corner where two envelope branches meet). Runs skipped over are the tails of an offset
-    loop where the path is tighter than R: they lie within the scallop of the discrete cutter positions
-    but not on the part. Returns the chain, whether it closes, and any further closed chains among the
-    remaining runs (separate pieces of material: the part split).
+    its end (the corner where two envelope branches meet). Returns the chain, whether it closes, and any
+    further closed chains among the remaining runs with an area above tolerance² (separate pieces of
+    material: the part split). Runs on none of them are left for :func:`_machined_leftovers` to judge.
     """
-    main, closed = _follow(runs, max(range(len(runs)), key=lambda k: runs[k].size), set(), tolerance)
-    used = set(main)
+    main = _follow(runs, max(range(len(runs)), key=lambda k: runs[k].size), set(), corners)
+    used = set(main.runs)
     extra = []
     for k in sorted(set(range(len(runs))) - used, key=lambda k: -runs[k].size):
         if k in used:
             continue
-        loop, loop_closed = _follow(runs, k, used, tolerance)
-        used.update(loop)
-        if loop_closed and _area(runs, loop) > tolerance**2:
+        loop = _follow(runs, k, used, corners)
+        if loop.closed and loop.area(runs) > corners.tolerance**2:
             extra.append(loop)
-    return main, closed, extra
+            used.update(loop.runs)
+    return main, main.closed, extra
 
 
-def _merge_corners(stretches: list[Array], closed: bool) -> Array:
-    """Concatenate runs, putting each run's end and the next run's start on their midpoint.
-
-    Both are within the bisection tolerance of the corner but each may lie a scallop past it; the
-    midpoint keeps the two envelope branches from crossing there.
-    """
-    stretches = [s.copy() for s in stretches]
-    pairs = len(stretches) if closed else len(stretches) - 1
-    for k in range(pairs):
-        nxt = stretches[(k + 1) % len(stretches)]
-        corner = 0.5 * (stretches[k][-1] + nxt[0])
-        stretches[k][-1] = corner
-        nxt[0] = corner
-    return np.vstack(stretches)
-
-
-def _follow(runs: list[_Run], first: int, used: set[int], tolerance: float) -> tuple[list[int], bool]:
-    chain, k, m = [first], first, len(runs)
+def _follow(runs: list[_Run], first: int, used: set[int], corners: _Corners) -> _Chain:
+    chain, links, k = [first], [], first
     while True:
-        successor = next((j % m for j in range(k + 1, k + m + 1)
-                          if j % m not in used and (j % m == first or j % m not in chain)
-                          and np.linalg.norm(runs[j % m].start - runs[k].end) <= tolerance), None)
-        if successor is None:
-            return chain, False
+        candidates = [j for j in range(len(runs)) if j not in used and (j == first or j not in chain)]
+        found = corners.successor(runs, k, candidates)
+        if found is None:
+            return _Chain(chain, links, False)
+        successor, corner = found
+        links.append(corner)
         if successor == first:
-            return chain, True
+            return _Chain(chain, links, True)
         chain.append(successor)
         k = successor
 
 
-def _area(runs: list[_Run], loop: list[int]) -> float:
-    points = np.vstack([runs[k].points for k in loop])
-    return abs(0.5 * np.sum(cross(points, np.roll(points, -1, axis=0))))
+def _machined_leftovers(runs: list[_Run], leftover: list[int], pieces: list[BezierCurve], radius: float,
+                        tolerance: float) -> list[int]:
+    """The leftover runs that are machined surface, not tails of an offset loop.
+
+    A needle of real surface is inside the stock (the region the path encloses) and R from the whole
+    continuous path, so no cutter position cuts it, however dense. A tail is not: either it survives only
+    in the scallop between two discrete cutter positions (cutter positions 16 times denser, with a scallop
+    256 times shallower, cut it), or it lies outside the stock, where a path that is tighter than R, or
+    has a cusp, turns its offset. A run with a needle of real surface is a piece of the part that the
+    chaining could not place, and must not be dropped.
+    """
+    if not leftover:
+        return []
+    fine = _cutter_positions(pieces, radius, tolerance / 4 / 256)
+    tree = cKDTree(fine)
+
+    def is_surface(run: _Run) -> bool:
+        tips = run.points[1:-1]
+        tips = tips[_uncut(tree, tips, radius, tolerance)]
+        chunks = range(0, len(tips), 16)  # 16 tips against every path sample at a time: bounded memory
+        return any((_winding_number(fine, tips[i : i + 16]) > 0).any() for i in chunks)
+
+    return [k for k in leftover if is_surface(runs[k])]
+
+
+def _winding_number(loop: Array, points: Array) -> np.ndarray:
+    """How many times the closed polyline ``loop`` (``(m, 2)``) winds counter-clockwise around each point."""
+    a, b = loop[None, :, :], np.roll(loop, -1, axis=0)[None, :, :]
+    p = points[:, None, :]
+    left = cross(b - a, p - a)
+    up = (a[..., 1] <= p[..., 1]) & (b[..., 1] > p[..., 1]) & (left > 0)
+    down = (b[..., 1] <= p[..., 1]) & (a[..., 1] > p[..., 1]) & (left < 0)
+    return up.sum(axis=1) - down.sum(axis=1)
+
+
+def _corner_labels(sigma: Array, owner: np.ndarray, count: int) -> np.ndarray:
+    """For each of ``count`` merged points, the index of the member whose σ lies nearest a piece junction.
+
+    A corner point is the end of one branch and the start of another (and, at a smooth junction, the
+    last needle of one piece and the first of the next); the member nearest an integer σ says which
+    junction it is, e.g. the pressure-side trailing-edge corner is σ = 0 although the trailing-edge face
+    reaches it first.
+    """
+    offset = np.abs(sigma - np.round(sigma))
+    order = np.lexsort((offset, owner))  # by owner, then by distance to a junction
+    firsts = np.flatnonzero(np.r_[True, np.diff(owner[order]) != 0])
+    label = np.empty(count, int)
+    label[owner[order[firsts]]] = order[firsts]
+    return label
 
 
 def _check_closed(pieces: list[BezierCurve], tolerance: float) -> None:
@@ -335,12 +512,15 @@ def _bisect(needles, tree, piece_id, u, lo_idx, hi_idx, lo_kept: bool, radius, t
     return np.where(same, pid, piece_id[hi_idx]), np.where(same, b, u[hi_idx])
 
 
-def _deduplicate(points: Array, distance: float) -> np.ndarray:
+def _deduplicate(points: Array, distance: float) -> tuple[np.ndarray, np.ndarray]:
     """Indices of the points that remain after dropping those closer than ``distance`` to the point
-    before them; the first point stays, and a last point that closes onto the first is dropped."""
+    before them (the first point stays, and a last point that closes onto the first is dropped), and for
+    every point the position in that index list of the point it merged into."""
     step = np.linalg.norm(np.diff(points, axis=0), axis=1)
     keep = np.concatenate([[True], step > distance])
+    owner = np.cumsum(keep) - 1
     idx = np.flatnonzero(keep)
     if idx.size > 1 and np.linalg.norm(points[idx[-1]] - points[0]) <= distance:
+        owner[idx[-1]:] = 0
         idx = idx[:-1]
-    return idx
+    return idx, owner

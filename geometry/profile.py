@@ -144,7 +144,12 @@ def _machined_profile(curves: BladeCurves, tolerance: float, max_spacing: float)
         raise GeometryError("the machined blade vanishes: the cutter removes all the material")
     if result.split:
         where = ", ".join(f"({a[0]*1e3:.2f}, {a[1]*1e3:.2f}) mm" for a, _ in result.gaps[:3])
-        raise GeometryError(f"the machined blade splits: the cutter cuts through it near {where}")
+        count = f"into {result.pieces} pieces" if result.pieces > 1 else "(its outline does not close)"
+        raise GeometryError(f"the machined blade splits {count}: the cutter cuts through it near {where}")
+    if result.unlinked.shape[0]:
+        where = ", ".join(f"({x*1e3:.2f}, {y*1e3:.2f}) mm" for x, y in result.unlinked[:3])
+        raise GeometryError(f"the machined boundary is undetermined: {result.unlinked.shape[0]} stretch(es) of "
+                            f"machined surface near {where} could not be linked into a closed outline")
     # Pieces: 0 pressure (P4 -> P0), 1 suction (S0 -> S4), 2-4 trailing-edge pass.
     le_index = int(np.argmin(np.abs(result.sigma - 1.0)))
     te_index = int(np.argmin(np.abs(result.sigma - 2.0)))

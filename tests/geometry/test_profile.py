@@ -61,7 +61,10 @@ def test_machined_blade_lies_inside_its_tool_path_by_r():
     assert distance.min() == pytest.approx(5e-3, abs=1.5e-6)  # both polylines are within 1 µm of their curves
 
 
-@pytest.mark.parametrize("mode", ["design", "toolpath"])
+MODES = ["design", pytest.param("toolpath", marks=pytest.mark.slow)]  # tool paths: ~4 s per class
+
+
+@pytest.mark.parametrize("mode", MODES)
 @pytest.mark.parametrize("continuity", ["G0", "G1", "C1", "G2", "C2"])
 def test_every_blade_passing_eq21_builds_or_says_why(mode, continuity):
     space = ParameterSpace.default(mode, continuity)
@@ -75,11 +78,58 @@ def test_every_blade_passing_eq21_builds_or_says_why(mode, continuity):
             assert not result.feasible
 
 
-def test_design_blades_satisfying_eq21_are_feasible():
+def trailing_edge_corners(profile):
+    """The pressure- and suction-side trailing-edge corners CL2 ∓ d_p4/d_s4 n(1), both modes."""
+    (cl2,), _, (n2,) = camber_frame(profile.curves.camber, [1.0])
+    return cl2 - profile.spec["d_p4"] * n2, cl2 + profile.spec["d_s4"] * n2
+
+
+@pytest.mark.parametrize("mode", MODES)
+@pytest.mark.parametrize("continuity", ["G0", "G1", "C1", "G2", "C2"])
+def test_every_profile_starts_at_the_pressure_side_trailing_edge_corner(mode, continuity):
+    """Issue 11, item 8: machined G0 profiles used to start ~0.8 mm up the pressure side with the corner
+    last, shifting the pressure / trailing-edge split. The corners are exact intersections of envelope
+    branches (design: curve end points), hence 1e-9 m. Blades whose sides cross (Eq. 21 violated, or a
+    cutter path crossing itself) have no pressure side to start from and are left out."""
+    space = ParameterSpace.default(mode, continuity)
+    built = 0
+    for x in space.sample(30, np.random.default_rng(29)):
+        result = evaluate_blade(space.spec(x))
+        sides = {c.name: c.satisfied for c in result.constraints if c.name.startswith(("eq21", "sides"))}
+        if result.profile is None or not all(sides.values()):
+            continue
+        profile = result.profile
+        pressure_corner, suction_corner = trailing_edge_corners(profile)
+        np.testing.assert_allclose(profile.points[0], pressure_corner, atol=1e-9)
+        np.testing.assert_allclose(profile.points[profile.te_index], suction_corner, atol=1e-9)
+        np.testing.assert_allclose(profile.pressure[-1], pressure_corner, atol=1e-9)
+        np.testing.assert_allclose(profile.trailing_edge[[0, -1]], [suction_corner, pressure_corner], atol=1e-9)
+        built += 1
+    assert built >= 5
+
+
+def test_design_blades_satisfying_eq21_build_and_only_crossing_sides_are_infeasible():
     space = ParameterSpace.default("design", "G1")
     specs = [space.spec(x) for x in space.sample(60, np.random.default_rng(5))]
     specs = [s for s in specs if s["beta1"] <= s["alpha"] <= s["beta1bar"]]
-    assert specs and all(evaluate_blade(s).feasible for s in specs)
+    results = [evaluate_blade(s) for s in specs]
+    assert specs and all(r.profile is not None for r in results)
+    for r in results:
+        assert r.feasible or [c.name for c in r.violations] == ["sides_simple"]
+
+
+def test_a_design_blade_satisfying_eq21_can_cross_itself():
+    """Eq. 21 does not make a design blade feasible (issue 11, item 8; docs/geometry.md): ~0.1-0.5 % of
+    the Table 6 box, every class, crosses itself. Here a strongly cambered G0 blade (β̄1 − β1 = 42°) with a
+    long P3P4 leg (d_p3 = 50 mm) whose pressure side crosses the suction side near x = 55 mm."""
+    values = {"L": 0.1, "alpha": 0.78322, "beta1": 0.45953, "beta1bar": 42.61485, "u_s1": 0.01847,
+              "u_s2": 0.25199, "d_s1": 0.00786, "d_s2": 0.00804, "d_s3": 0.02146, "d_s4": 0.002,
+              "u_p1": 0.03967, "u_p2": 0.23455, "d_p1": 0.00759, "d_p2": 0.00504, "d_p3": 0.04964, "d_p4": 0.002}
+    result = evaluate_blade(BladeSpec.from_values("design", "G0", values))
+    assert all(c.satisfied for c in result.constraints if c.name.startswith("eq21"))
+    assert not result.feasible and [c.name for c in result.violations] == ["sides_simple"]
+    assert "crosses itself" in result.violations[0].reason
+    assert not shapely.Polygon(result.profile.points).is_valid  # the outline itself, checked independently
 
 
 def test_eq21_violation_is_reported():
