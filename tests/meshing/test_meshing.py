@@ -27,8 +27,8 @@ def profile_of(example):
     return build_profile(BladeSpec.from_values(example["mode"], example["continuity"], example["parameters"]))
 
 
-@pytest.fixture(scope="module", params=[TABLE4_C2_DESIGN, TABLE5_G1_TOOLPATH],
-                ids=["table4_design", "table5_toolpath"])
+@pytest.fixture(scope="module", params=[TABLE4_C2_DESIGN, pytest.param(TABLE5_G1_TOOLPATH, marks=pytest.mark.slow)],
+                ids=["table4_design", "table5_toolpath"])  # one coarse mesh (~3 s) in the fast tier
 def case(request):
     profile = profile_of(request.param)
     return profile, build_mesh(profile, COARSE)
@@ -146,6 +146,7 @@ def test_perturbed_mesh_raises(case):
         check_quality(bad)
 
 
+@pytest.mark.slow
 def test_deterministic():
     profile = profile_of(TABLE5_G1_TOOLPATH)
     a, b = build_mesh(profile, COARSE), build_mesh(profile, COARSE)
@@ -156,6 +157,7 @@ def test_deterministic():
         assert np.array_equal(a.boundary[key], b.boundary[key])
 
 
+@pytest.mark.slow
 def test_cell_count_grows_with_level():
     profile = profile_of(TABLE4_C2_DESIGN)
     counts = [build_mesh(profile, MeshSpec.for_level(level)).n_cells for level in ("coarse", "medium", "fine")]
@@ -163,6 +165,7 @@ def test_cell_count_grows_with_level():
     assert 3_000 < counts[0] < 10_000 and 12_000 < counts[1] < 30_000 and 50_000 < counts[2] < 120_000
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("mode,continuity", [("design", "G1"), ("toolpath", "G0"), ("toolpath", "C2")])
 def test_random_feasible_blades_mesh_within_thresholds(mode, continuity):
     space = ParameterSpace.default(mode, continuity)
@@ -193,6 +196,7 @@ def test_write_msh_and_vtu(case, tmp_path):
         assert counts["line"] == sum(len(e) for e in mesh.boundary.values())
 
 
+@pytest.mark.slow
 def test_plot_zooms_on_the_edges(case, tmp_path):
     profile, mesh = case
     plot_mesh(mesh, tmp_path / "mesh.png", profile)
@@ -207,6 +211,7 @@ def test_spec_validation():
     assert MeshSpec.for_level("fine", y_plus=2.0).y_plus == 2.0
 
 
+@pytest.mark.slow
 def test_sharp_leading_edge_fan_rays_turn_smoothly():
     """A G0 tool path with a ~10° leading-edge wedge (bench sweep): the fan's last ray used to kink by ~65°
     where its straight part met the field line, making a quad with scaled Jacobian 0.395 at medium."""
@@ -228,6 +233,7 @@ BENCH_G1_DESIGN = {"L": 0.1, "alpha": 9.013, "beta1": -0.179, "beta1bar": 27.983
                    "d_s3": 0.02225, "d_p3": 0.03083, "d_s4": 0.002, "d_p4": 0.002}
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("half_height", [0.6, 1.0])
 def test_narrow_channel_passes_quality(half_height):
     """configs/examples/bench_g1_design.yaml (half_height 1): gmsh used to mesh the top and bottom walls
@@ -247,6 +253,7 @@ def test_narrow_channel_passes_quality(half_height):
     assert lengths.max() <= 0.25 * (y1 - y0) * 1.05 and lengths.min() < 0.5 * lengths.max()
 
 
+@pytest.mark.slow
 def test_domain_too_narrow_for_the_o_layer_raises():
     profile = build_profile(BladeSpec.from_values("design", "G1", BENCH_G1_DESIGN))
     with pytest.raises(MeshingError, match="does not contain the O-layer"):
