@@ -168,7 +168,7 @@ def _run(config, problem, store, directory, runner, fn, progress, log) -> Outcom
         with _terminate_as_interrupt(), runner:
             loop.run()
     except KeyboardInterrupt:
-        store.end_campaign("interrupted", "interrupted (signal); continue with `millfoil resume`")
+        store.end_campaign("interrupted", f"continue with `millfoil resume {directory}`")
         raise
     except BaseException as exc:
         store.end_campaign("failed", f"{type(exc).__name__}: {exc}")

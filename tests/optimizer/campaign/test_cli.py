@@ -1,0 +1,90 @@
+"""``millfoil run | resume | status | check`` in process, on ZDT1 (no CFD), and the progress display."""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+
+import pytest
+
+from optimizer.campaign.driver import GenerationProgress
+from optimizer.campaign.progress import ProgressDisplay, progress_line
+from optimizer.cli import main
+
+ZDT1 = "analytic: {problem: zdt1, variables: 4}\nalgorithm: {population: 8, generations: 3, seed: 1}\n" \
+       "execution: {backend: inline}\noutput: {sync: normal}\n"
+
+
+@pytest.fixture
+def zdt1(tmp_path):
+    path = tmp_path / "zdt1.yaml"
+    path.write_text(ZDT1)
+    return path
+
+
+def test_check_prints_the_resolved_campaign(capsys):
+    assert main(["check", "configs/quickstart.yaml"]) == 0
+    out = capsys.readouterr().out
+    assert "design variables (11)" in out and "alpha" in out and "max |fy|, min c_max" in out
+    assert "# resolved campaign" in out and "half_height: 1.0" in out
+
+
+def test_check_bad_config_exits_2_with_file_and_line(tmp_path, capsys):
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("algorithm:\n  population: 8\n  generatons: 3\n")
+    assert main(["check", str(bad)]) == 2
+    assert f"{bad}:3: unknown key 'algorithm.generatons'" in capsys.readouterr().err
+
+
+def test_run_status_resume(tmp_path, zdt1, capsys):
+    run = tmp_path / "run"
+    assert main(["run", str(zdt1), "--out", str(run)]) == 0
+    captured = capsys.readouterr()
+    assert f"results in {run}/" in captured.out and "non-dominated designs" in captured.out
+    assert captured.err.count("generation ") == 3         # one line per generation off a terminal
+    with open(run / "front.csv") as fh:
+        header = next(csv.reader(fh))
+    assert header[:5] == ["f1", "f2", "class", "generation", "key"] and "x1" in header
+    assert (run / "config.yaml").exists()
+
+    assert main(["status", str(run), "--json"]) == 0
+    status = json.loads(capsys.readouterr().out)
+    assert status["state"] == "finished" and status["generations"] == {"done": 3, "total": 3}
+    assert status["by_status"] == {"ok": status["evaluations"]}
+    assert main(["status", str(run)]) == 0
+    assert "finished" in capsys.readouterr().out
+
+    assert main(["run", str(zdt1), "--out", str(run)]) == 2            # never overwritten
+    assert "millfoil resume" in capsys.readouterr().err
+    assert main(["resume", str(run)]) == 0                              # finished: nothing to do
+    assert "non-dominated designs" in capsys.readouterr().out
+
+
+def test_resume_errors(tmp_path, capsys):
+    assert main(["resume", str(tmp_path / "nothing")]) == 2
+    assert "no campaign store" in capsys.readouterr().err
+    assert main(["resume", str(tmp_path), "--set", "solver.max_iter=5"]) == 2
+    assert "only execution.KEY=VALUE" in capsys.readouterr().err
+    assert main(["status", str(tmp_path / "nothing")]) == 2
+
+
+def test_progress_display_live_on_a_terminal_and_lines_elsewhere():
+    running = GenerationProgress(1, 5, total=10, submitted=8, done=3, failed=1, infeasible=2, workers=2,
+                                 best={"|fy|": 9924.3, "c_max": 21.0}, hypervolume=1.5, eta_s=3725)
+    assert "generation 2/5" in progress_line(running) and "2 running" in progress_line(running)
+    assert "ETA 1h02m" in progress_line(running) and "|fy| 9924" in progress_line(running)
+    finished = GenerationProgress(1, 5, total=10, done=7, failed=1, infeasible=2, finished=True)
+
+    log = io.StringIO()
+    ProgressDisplay(log, live=False)(running)
+    ProgressDisplay(log, live=False)(finished)
+    assert log.getvalue().count("\n") == 1 and "running" not in log.getvalue()
+
+    tty = io.StringIO()
+    display = ProgressDisplay(tty, live=True)
+    display(running)
+    display(running)
+    display(finished)
+    text = tty.getvalue()
+    assert text.count("\r\033[K") == 2 and text.endswith("\n")      # the live line is redrawn in place
