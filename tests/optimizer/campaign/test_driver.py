@@ -134,7 +134,7 @@ def failing_pipeline(monkeypatch):
 def blade_campaign(tmp_path, *overrides):
     path = tmp_path / "blade.yaml"
     path.write_text("blade: {mode: design, continuity: G1}\nmesh: {level: coarse}\n"
-                    "algorithm: {population: 10, generations: 4, seed: 5}\n"
+                    "algorithm: {population: 8, generations: 3, seed: 5}\n"
                     "execution: {backend: inline}\noutput: {sync: normal}\n")
     return load_campaign(path, overrides)
 
