@@ -37,16 +37,14 @@ def number(v: float | None) -> str:
 
 
 def progress_line(p) -> str:
-    """One line for a :class:`GenerationProgress`."""
+    """One line for a :class:`GenerationProgress`, most telling first (a terminal may cut its end)."""
     best = " ".join(f"{k} {number(v)}" for k, v in p.best.items()) or "-"
     share = "-" if p.feasible_share is None else f"{p.feasible_share:.0%}"
-    head = f"generation {p.generation + 1}/{p.generations}"
-    counts = (f"{p.total} designs: {p.done} done, {p.failed} failed, {p.infeasible} infeasible, "
-              f"{p.cached} cached")
+    counts = f"{p.done} done, {p.failed} failed, {p.infeasible} infeasible, {p.cached} cached"
     if not p.finished:
         counts += f", {p.running} running"
-    return (f"{head}: {counts} | feasible {share} | best {best} | hypervolume {number(p.hypervolume)} | "
-            f"ETA {duration(p.eta_s)}")
+    return (f"generation {p.generation + 1}/{p.generations}: {counts} of {p.total} | ETA {duration(p.eta_s)} | "
+            f"best {best} | hypervolume {number(p.hypervolume)} | feasible {share}")
 
 
 class ProgressDisplay:
