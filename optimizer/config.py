@@ -15,12 +15,22 @@ from __future__ import annotations
 
 import copy
 import dataclasses
+import reprlib
 from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
-from typing import Any, Literal, Self, get_args, get_type_hints
+from typing import Any, Literal, Self, get_args, get_origin, get_type_hints
 
 import yaml
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, create_model, field_validator, model_validator
+from pydantic import (
+    BaseModel,
+    ConfigDict,
+    Field,
+    ValidationError,
+    ValidationInfo,
+    create_model,
+    field_validator,
+    model_validator,
+)
 
 from geometry import BladeSpec, Continuity, Mode, ParameterError, ParameterSpace
 from geometry.examples import TABLE4_C2_DESIGN
@@ -34,8 +44,69 @@ class ConfigError(ValueError):
     """A configuration file or override that cannot be used; the message names the offending key."""
 
 
+def _short_repr() -> reprlib.Repr:
+    short = reprlib.Repr()   # Python 3.11 has no keyword arguments for these
+    short.maxlevel, short.maxlist, short.maxtuple, short.maxdict, short.maxset = 2, 4, 4, 4, 4
+    short.maxstring, short.maxother, short.maxlong = 60, 60, 40
+    return short
+
+
+_REPR = _short_repr()
+
+
+def shorten(value: Any) -> str:
+    """``repr(value)`` cut to about 80 characters (nesting, items and digits elided with ``...``): what every
+    error message shows of a user's input, so that no input can make a message large."""
+    return _REPR.repr(value)
+
+
 class _Frozen(BaseModel):
+    """Base of every configuration section: unknown keys are errors, the result is frozen, and a boolean is
+    never read as a number (``alpha: true`` would otherwise be 1)."""
+
     model_config = ConfigDict(extra="forbid", frozen=True)
+
+    @field_validator("*", mode="before")
+    @classmethod
+    def _no_boolean_for_a_number(cls, v: Any, info: ValidationInfo) -> Any:
+        field = cls.model_fields.get(info.field_name) if info.field_name else None
+        if field is not None and _wants_number(field.annotation):
+            where = _boolean_in(v, ())
+            if where is not None:
+                raise _BooleanForNumber(where)
+        return v
+
+
+def _wants_number(annotation: Any) -> bool:
+    """Whether ``annotation`` holds numbers and no booleans (``float``, ``int | None``, ``dict[str, float]``,
+    ``tuple[float, float]``...)."""
+    args = get_args(annotation)
+    if annotation is bool or bool in args:
+        return False
+    if annotation in (int, float):
+        return True
+    return get_origin(annotation) is not Literal and any(_wants_number(a) for a in args)
+
+
+def _boolean_in(value: Any, where: tuple) -> tuple | None:
+    """The path of a boolean in ``value`` (``()`` for ``value`` itself, ``("alpha",)``, ``(1,)``), else None."""
+    if isinstance(value, bool):
+        return where
+    items = value.items() if isinstance(value, dict) else enumerate(value) if isinstance(value, list | tuple) else ()
+    for key, item in items:
+        found = _boolean_in(item, (*where, key))
+        if found is not None:
+            return found
+    return None
+
+
+class _BooleanForNumber(ValueError):
+    """A boolean where a number is expected; ``path``: where below the field (for the error's location)."""
+
+    def __init__(self, path: tuple):
+        super().__init__("a number is expected, not a boolean (true/false, yes/no and on/off are booleans in "
+                         "YAML)")
+        self.path = path
 
 
 class BladeConfig(_Frozen):
@@ -294,26 +365,57 @@ def read_yaml(path: str | Path, schema: type[Config] = Config) -> dict[str, Any]
 
 
 def read_yaml_source(path: str | Path, schema: type[Config] = Config) -> tuple[dict[str, Any], Source]:
-    """:func:`read_yaml` and where each key is (:class:`optimizer.yamlsource.Source`, for error lines)."""
+    """:func:`read_yaml` and where each key is (:class:`optimizer.yamlsource.Source`, for error lines).
+    An empty file is an error: the embedded defaults are what a command runs without a file."""
     try:
         raw, source = yamlsource.read_yaml(path)
     except yamlsource.YamlSourceError as exc:
         raise ConfigError(str(exc)) from None
-    raw = raw or {}
+    sections = ", ".join(schema.model_fields)
+    if raw is None or raw == {}:
+        raise ConfigError(f"{path} is empty: a configuration file sets at least one section ({sections}); "
+                          "to run the embedded defaults, give no file")
     if not isinstance(raw, dict):
-        raise ConfigError(f"{path} must be a YAML mapping of sections ({', '.join(schema.model_fields)})")
+        raise ConfigError(f"{path} must be a YAML mapping of sections ({sections}), not {type(raw).__name__} "
+                          f"{shorten(raw)}")
     return raw, source
 
 
 def apply_overrides(raw: Mapping[str, Any], overrides: Sequence[str], schema: type[Config] = Config) -> dict[str, Any]:
-    """A copy of ``raw`` with each ``KEY=VALUE`` set, the value read as a YAML scalar (see module docstring)."""
-    pairs = []
+    """A copy of ``raw`` with each ``KEY=VALUE`` set, the value read as YAML (see module docstring) with the
+    limits of :mod:`optimizer.yamlsource`; a key given twice is an error."""
+    pairs, given = [], {}
     for item in overrides:
         key, sep, text = item.partition("=")
-        if not sep or not key.strip():
-            raise ConfigError(f"override {item!r} must look like KEY=VALUE, e.g. alpha=25 or blade.mode=toolpath")
-        pairs.append((key.strip(), yaml.safe_load(text)))
+        key = key.strip()
+        if not sep or not key:
+            raise ConfigError(f"--set {shorten(item)} must look like KEY=VALUE, e.g. alpha=25 or "
+                              "blade.mode=toolpath")
+        path = _override_path(key, schema)
+        if path in given:
+            raise ConfigError(f"--set {_short_key(key)}: the key is given twice ({shorten(given[path])} and "
+                              f"{shorten(item)}); give each key once")
+        given[path] = item
+        try:
+            value, _ = yamlsource.parse_yaml(text, f"--set {_short_key(key)}", lines=False)
+        except yamlsource.YamlSourceError as exc:
+            raise ConfigError(str(exc)) from None
+        pairs.append((key, value))
     return set_values(raw, pairs, schema)
+
+
+def _short_key(key: str) -> str:
+    return key if len(key) <= 60 else key[:59] + "…"
+
+
+def _override_path(key: str, schema: type[Config]) -> tuple[str, ...]:
+    """The path into the configuration of the dotted ``key`` (a bare non-section name is a blade parameter)."""
+    path = tuple(key.split("."))
+    if any(not part.strip() for part in path):
+        raise ConfigError(f"--set {shorten(key)}: a key is dotted names, e.g. blade.mode or alpha")
+    if len(path) == 1 and path[0] not in schema.model_fields:
+        path = ("blade", "parameters", path[0])
+    return path
 
 
 def set_values(raw: Mapping[str, Any], values: Iterable[tuple[str, Any]], schema: type[Config] = Config
@@ -322,32 +424,40 @@ def set_values(raw: Mapping[str, Any], values: Iterable[tuple[str, Any]], schema
     ``schema`` is a blade parameter (``alpha`` is ``blade.parameters.alpha``)."""
     result = copy.deepcopy(dict(raw))
     for key, value in values:
-        path = key.split(".")
-        if len(path) == 1 and path[0] not in schema.model_fields:
-            path = ["blade", "parameters", path[0]]
+        path = _override_path(key, schema)
         node = result
         for part in path[:-1]:
             child = node.setdefault(part, {})
             if not isinstance(child, dict):
-                raise ConfigError(f"override {key!r}: {part!r} is a value, not a section")
+                raise ConfigError(f"--set {shorten(key)}: {shorten(part)} is a value, not a section")
             node = child
         node[path[-1]] = value
     return result
 
 
 def _explain(exc: ValidationError, schema: type[Config], source: Source | None = None) -> str:
-    """One line per problem, naming the key and what it allows (and ``FILE:LINE:`` with a ``source``)."""
+    """One line per problem, naming the key and what it allows (and ``FILE:LINE:`` with a ``source``);
+    the input is shown shortened (:func:`shorten`)."""
     lines = []
     for err in exc.errors():
-        where = ".".join(str(p) for p in err["loc"])
-        at = f"{source.where(err['loc'])}: " if source is not None else ""
+        loc = tuple(err["loc"])
+        error = (err.get("ctx") or {}).get("error")
+        if isinstance(error, _BooleanForNumber):
+            loc = (*loc, *error.path)
+        where = ".".join(str(p) for p in loc)
+        at = f"{source.where(loc)}: " if source is not None else ""
         if err["type"] == "extra_forbidden":
-            allowed = _allowed_keys(schema, err["loc"][:-1])
+            allowed = _allowed_keys(schema, loc[:-1])
             lines.append(f"{at}unknown key '{where}'; allowed: {', '.join(allowed)}")
         elif err["type"] in ("enum", "literal_error"):
-            lines.append(f"{at}'{where}' = {err['input']!r} is not allowed; allowed: {err['ctx']['expected']}")
+            lines.append(f"{at}'{where}' = {shorten(err['input'])} is not allowed; allowed: {err['ctx']['expected']}")
+        elif err["type"] == "missing":
+            lines.append(f"{at}'{where}' is required")
+        elif isinstance(error, _BooleanForNumber):
+            lines.append(f"{at}'{where}': {error}")
         else:
-            lines.append(f"{at}'{where}': {err['msg']} (got {err['input']!r})")
+            msg = err["msg"].removeprefix("Value error, ")
+            lines.append(f"{at}'{where}': {msg} (got {shorten(err['input'])})")
     return "; ".join(lines)
 
 

@@ -6,8 +6,14 @@ its path (``("objectives", 0, "sense")``). :meth:`Source.where` turns the locati
 (pydantic's ``loc``, or any path into the data) into ``FILE:LINE``; a path that does not exist in the file
 (a default, or a key added by an override) falls back to its nearest ancestor that does.
 
-Used by every configuration loader (:func:`optimizer.config.load_config` and the campaign schema), so that
-all configuration errors look the same.
+What a document may be is bounded before any of it is built (each limit is documented in
+``docs/errors.md``): the file at most :data:`MAX_FILE_BYTES` of UTF-8 text, at most :data:`MAX_VALUES`
+values once YAML aliases are expanded (an alias bomb is refused, not built), nesting at most
+:data:`MAX_DEPTH` deep, no alias that contains itself, numbers of at most :data:`MAX_NUMBER_CHARS`
+characters, and no key twice in one mapping (the last one would silently win).
+
+Used by every configuration loader (:func:`optimizer.config.load_config` and the campaign schema) and by
+``--set`` overrides, so that all configuration errors look the same.
 """
 
 from __future__ import annotations
@@ -21,9 +27,21 @@ import yaml
 
 Path_ = tuple[Any, ...]
 
+#: Largest configuration file read, bytes (the shipped ones are below 4 KiB).
+MAX_FILE_BYTES = 1 << 20
+#: Most values (mapping keys, values and sequence items, counted after alias expansion) in one document.
+MAX_VALUES = 10_000
+#: Deepest nesting of mappings and sequences in one document (configurations are at most 4 deep).
+MAX_DEPTH = 32
+#: Longest number, in characters (a float has 17 significant digits; 5000 digits is a mistake).
+MAX_NUMBER_CHARS = 100
+
+_NUMBER_TAGS = ("tag:yaml.org,2002:int", "tag:yaml.org,2002:float")
+_MERGE_TAG = "tag:yaml.org,2002:merge"
+
 
 class YamlSourceError(ValueError):
-    """A file that cannot be read or is not valid YAML; the message names the file and line."""
+    """A file that cannot be read, is not valid YAML or is beyond a limit; the message names file and line."""
 
 
 @dataclass(frozen=True)
@@ -59,32 +77,129 @@ def _normalise(path: Path_) -> Path_:
 
 def read_yaml(path: str | Path) -> tuple[Any, Source]:
     """The data of the YAML file ``path`` and its :class:`Source` (raises :class:`YamlSourceError`)."""
+    return parse_yaml(read_text(path), str(path))
+
+
+def read_text(path: str | Path) -> str:
+    """The text of the configuration file ``path``: UTF-8 (a byte-order mark is allowed), at most
+    :data:`MAX_FILE_BYTES` (only that much is read, so a device or a huge file costs nothing)."""
     try:
-        text = Path(path).read_text()
+        with open(path, "rb") as f:
+            data = f.read(MAX_FILE_BYTES + 1)
     except OSError as exc:
-        raise YamlSourceError(f"cannot read configuration file {path}: {exc.strerror}") from None
-    return parse_yaml(text, str(path))
-
-
-def parse_yaml(text: str, name: str = "<string>") -> tuple[Any, Source]:
-    """The data of the YAML document ``text`` and its :class:`Source` named ``name``."""
+        raise YamlSourceError(f"cannot read configuration file {path}: {exc.strerror or exc}") from None
+    if len(data) > MAX_FILE_BYTES:
+        raise YamlSourceError(f"{path}: configuration file larger than {MAX_FILE_BYTES // 1024} KiB; "
+                              "a configuration is a short YAML text")
     try:
-        node = yaml.compose(text, Loader=yaml.SafeLoader)
-        data = yaml.safe_load(text)
+        return data.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        line = data[:exc.start].count(b"\n") + 1
+        raise YamlSourceError(f"{path}:{line}: not a UTF-8 text file (byte 0x{data[exc.start]:02x} at offset "
+                              f"{exc.start}); a configuration file is YAML text") from None
+
+
+def parse_yaml(text: str, name: str = "<string>", *, lines: bool = True) -> tuple[Any, Source]:
+    """The data of the YAML document ``text`` and its :class:`Source` named ``name``.
+
+    Errors start ``NAME:LINE:``; with ``lines=False`` (a one-line text such as an override's value) they
+    start ``NAME:`` and give the column instead.
+    """
+    loader = None
+    try:
+        loader = yaml.SafeLoader(text)
+        node = loader.get_single_node()
+        if node is not None:
+            _check(node, name, lines)
+        data = loader.construct_document(node) if node is not None else None
     except yaml.MarkedYAMLError as exc:
-        mark = exc.problem_mark or exc.context_mark
-        at = f"{name}:{mark.line + 1}" if mark is not None else name
-        raise YamlSourceError(f"{at}: not valid YAML: {exc.problem or exc}") from None
+        raise YamlSourceError(f"{_at(name, exc.problem_mark or exc.context_mark, lines)}: not valid YAML: "
+                              f"{exc.problem or exc.context}") from None
+    except yaml.reader.ReaderError as exc:
+        raise YamlSourceError(f"{name}: not valid YAML: unacceptable character #x{exc.character:04x} at "
+                              f"offset {exc.position} ({exc.reason})") from None
     except yaml.YAMLError as exc:
         raise YamlSourceError(f"{name}: not valid YAML: {exc}") from None
-    lines: dict[Path_, int] = {}
+    except RecursionError:
+        raise YamlSourceError(f"{name}: nested more than {MAX_DEPTH} levels deep") from None
+    finally:
+        if loader is not None:
+            loader.dispose()
+    line_of: dict[Path_, int] = {}
     if node is not None:
-        _record(node, (), lines)
-    return data, Source(name, lines)
+        _record(node, (), line_of)
+    return data, Source(name, line_of)
+
+
+def _at(name: str, mark: yaml.Mark | None, lines: bool) -> str:
+    """``NAME:LINE`` of ``mark`` (or ``NAME, column C`` for a one-line text)."""
+    if mark is None:
+        return name
+    return f"{name}:{mark.line + 1}" if lines else f"{name} (column {mark.column + 1})"
+
+
+def _check(root: yaml.Node, name: str, lines: bool) -> None:
+    """Refuse a document beyond the module's limits, before any of it is built. Every node is visited
+    once (aliases share their node), so the cost is that of the text, whatever the aliases expand to."""
+    sizes: dict[int, int] = {}
+    open_nodes: set[int] = set()
+
+    def fail(node: yaml.Node, what: str) -> None:
+        raise YamlSourceError(f"{_at(name, node.start_mark, lines)}: {what}")
+
+    def size(node: yaml.Node, depth: int) -> int:
+        """Values below and including ``node`` with aliases expanded (memoised per node)."""
+        if id(node) in sizes:
+            return sizes[id(node)]
+        if id(node) in open_nodes:
+            fail(node, "an alias refers to a value that contains it (a recursive alias)")
+        if depth > MAX_DEPTH:
+            fail(node, f"nested more than {MAX_DEPTH} levels deep")
+        if isinstance(node, yaml.ScalarNode):
+            if node.tag in _NUMBER_TAGS and len(node.value) > MAX_NUMBER_CHARS:
+                fail(node, f"a number of {len(node.value)} characters; numbers are limited to "
+                     f"{MAX_NUMBER_CHARS} characters")
+            sizes[id(node)] = 1
+            return 1
+        open_nodes.add(id(node))
+        if isinstance(node, yaml.MappingNode):
+            _refuse_duplicate_keys(node, fail)
+            children = [n for pair in node.value for n in pair]
+        else:
+            children = list(node.value)
+        total = 1
+        for child in children:
+            total += size(child, depth + 1)
+            if total > MAX_VALUES:
+                fail(root, f"expands to more than {MAX_VALUES} values (YAML aliases repeat what they refer "
+                     f"to); a configuration is limited to {MAX_VALUES}")
+        open_nodes.discard(id(node))
+        sizes[id(node)] = total
+        return total
+
+    size(root, 0)
+
+
+def _refuse_duplicate_keys(node: yaml.MappingNode, fail) -> None:
+    """A key given twice in one mapping is an error naming the key and both lines."""
+    seen: dict[tuple[str, str], yaml.Node] = {}
+    for key_node, _ in node.value:
+        if not isinstance(key_node, yaml.ScalarNode) or key_node.tag == _MERGE_TAG:
+            continue
+        key = (key_node.tag, key_node.value)
+        if key in seen:
+            first = seen[key].start_mark.line + 1
+            fail(key_node, f"duplicate key {_short(key_node.value)!r} (first given on line {first}); a key may "
+                 "appear once in a mapping")
+        seen[key] = key_node
+
+
+def _short(text: str, limit: int = 60) -> str:
+    return text if len(text) <= limit else text[:limit - 1] + "…"
 
 
 def _record(node: yaml.Node, path: Path_, lines: dict[Path_, int]) -> None:
-    """Fill ``lines`` with the line of every key and item below ``node``."""
+    """Fill ``lines`` with the line of every key and item below ``node`` (bounded: :func:`_check` ran)."""
     if isinstance(node, yaml.MappingNode):
         for key_node, value_node in node.value:
             key = key_node.value if isinstance(key_node, yaml.ScalarNode) else None
