@@ -77,17 +77,28 @@ class Parameter:
 
     def check(self, value: float) -> None:
         lo, hi = self.domain
+        low_bracket = "(" if self.open_low else "["
+        domain = f"{low_bracket}{lo:g}, {hi:g}]"
+        if not math.isfinite(value):
+            raise ParameterError(f"parameter '{self.name}' must be a finite number in {domain} {self.unit}, "
+                                 f"got {value} ({self.description})")
         below = value <= lo if self.open_low else value < lo
-        if not math.isfinite(value) or below or value > hi:
-            low_bracket = "(" if self.open_low else "["
+        if below or value > hi:
             raise ParameterError(
-                f"parameter '{self.name}' = {value!r} {self.unit} is out of its domain "
-                f"{low_bracket}{lo:g}, {hi:g}] ({self.description})"
+                f"parameter '{self.name}' = {value!r} {self.unit} is out of its domain {domain} ({self.description})"
             )
 
 
+#: Largest length parameter (chord, offsets, cutter radius), m. Profiles are sampled at least every
+#: millimetre (``geometry.profile.DEFAULT_MAX_SPACING``), so the cost grows with the lengths: 10 m gives
+#: about 20 000 points; larger lengths would ask for millions.
+MAX_LENGTH = 10.0
+#: Smallest chord L, m: below it the default 1 µm tolerance is no longer small against the blade.
+MIN_CHORD = 1e-3
+
 _ANGLE = (-90.0, 90.0)
-_POSITIVE = (0.0, math.inf)
+_LENGTH = (0.0, MAX_LENGTH)
+_RATIO = (0.0, 100.0)   # k2: 25 times millfoil's range (0.25 … 4); finite, so that no k2 overflows P2
 _UNIT = (0.0, 1.0)
 _MM = 1e-3
 
@@ -97,29 +108,29 @@ def _catalogue(mode: Mode) -> dict[str, Parameter]:
     d1 = (5 * _MM, 8 * _MM) if mode is Mode.DESIGN else (8 * _MM, 11 * _MM)
     side = "tool-centre offset" if mode is Mode.TOOLPATH else "offset"
     p = [
-        Parameter("L", "m", "chord length", _POSITIVE, open_low=True, fixed=0.1),
+        Parameter("L", "m", "chord length", (MIN_CHORD, MAX_LENGTH), fixed=0.1),
         Parameter("alpha", "deg", "chord angle α", _ANGLE, bounds=(-5.0, 25.0)),
         Parameter("beta1", "deg", "inlet angle β1", _ANGLE, bounds=(-20.0, 30.0)),
         Parameter("beta1bar", "deg", "outlet angle β̄1", _ANGLE, bounds=(0.0, 50.0)),
         Parameter("u_s1", "-", "camber abscissa of S1 (G0 only)", _UNIT, bounds=(0.0, 0.1)),
         Parameter("u_s2", "-", "camber abscissa of S2", _UNIT, bounds=(0.01, 0.35)),
-        Parameter("d_s1", "m", f"suction {side} of S1", _POSITIVE, open_low=True, bounds=d1),
-        Parameter("d_s2", "m", f"suction {side} of S2", _POSITIVE, bounds=(5 * _MM, 15 * _MM)),
-        Parameter("d_s3", "m", "distance S3-S4 along the outlet tangent", _POSITIVE, open_low=True,
+        Parameter("d_s1", "m", f"suction {side} of S1", _LENGTH, open_low=True, bounds=d1),
+        Parameter("d_s2", "m", f"suction {side} of S2", _LENGTH, bounds=(5 * _MM, 15 * _MM)),
+        Parameter("d_s3", "m", "distance S3-S4 along the outlet tangent", _LENGTH, open_low=True,
                   bounds=(20 * _MM, 50 * _MM)),
-        Parameter("d_s4", "m", "suction trailing-edge half-thickness", _POSITIVE, fixed=2 * _MM),
+        Parameter("d_s4", "m", "suction trailing-edge half-thickness", _LENGTH, fixed=2 * _MM),
         Parameter("u_p1", "-", "camber abscissa of P1 (G0 only)", _UNIT, bounds=(0.0, 0.1)),
         Parameter("u_p2", "-", "camber abscissa of P2", _UNIT, bounds=(0.01, 0.35)),
-        Parameter("d_p1", "m", f"pressure {side} of P1", _POSITIVE, open_low=True, bounds=d1),
-        Parameter("d_p2", "m", f"pressure {side} of P2", _POSITIVE, bounds=(5 * _MM, 15 * _MM)),
-        Parameter("d_p3", "m", "distance P3-P4 along the outlet tangent", _POSITIVE, open_low=True,
+        Parameter("d_p1", "m", f"pressure {side} of P1", _LENGTH, open_low=True, bounds=d1),
+        Parameter("d_p2", "m", f"pressure {side} of P2", _LENGTH, bounds=(5 * _MM, 15 * _MM)),
+        Parameter("d_p3", "m", "distance P3-P4 along the outlet tangent", _LENGTH, open_low=True,
                   bounds=(20 * _MM, 50 * _MM)),
-        Parameter("d_p4", "m", "pressure trailing-edge half-thickness", _POSITIVE, fixed=2 * _MM),
+        Parameter("d_p4", "m", "pressure trailing-edge half-thickness", _LENGTH, fixed=2 * _MM),
         Parameter("k2", "-", "G2 ratio of tangential second derivatives at the leading edge",
-                  _POSITIVE, open_low=True, bounds=(0.25, 4.0)),
+                  _RATIO, open_low=True, bounds=(0.25, 4.0)),
     ]
     if mode is Mode.TOOLPATH:
-        p.append(Parameter("R", "m", "cutter radius", _POSITIVE, open_low=True, fixed=5 * _MM))
+        p.append(Parameter("R", "m", "cutter radius", _LENGTH, open_low=True, fixed=5 * _MM))
     return {q.name: q for q in p}
 
 

@@ -43,7 +43,7 @@ def test_space_overrides():
     ("design", "C2", {"R": 0.005}, "unknown parameter 'R'"),
     ("design", "C2", {"alpha": None}, "parameter 'alpha' must be a number"),
     ("design", "C2", {"u_s2": 1.5}, r"parameter 'u_s2' = 1.5 - is out of its domain \[0, 1\]"),
-    ("design", "C2", {"d_s1": 0.0}, r"parameter 'd_s1' = 0.0 m is out of its domain \(0, inf\]"),
+    ("design", "C2", {"d_s1": 0.0}, r"parameter 'd_s1' = 0.0 m is out of its domain \(0, 10\]"),
     ("design", "C2", {"alpha": 95}, "parameter 'alpha' = 95"),
 ])
 def test_bad_input_names_the_problem(mode, continuity, values, match):
