@@ -13,7 +13,9 @@ the result loop): wall time x workers / tasks. Compared with the mean coarse eva
 below 1 %).
 
 Cluster start-up is not counted (it happens once per campaign). The machine's load average is printed
-with the figures: other processes on the cores make the speed-up meaningless.
+with the figures: other processes on the cores lengthen each evaluation and make the speed-up meaningless;
+the workers' utilisation (time spent in evaluations / (workers x wall time)) is what the runner itself
+controls.
 
     python bench/bench_campaign_throughput.py                        # 1 and 2 workers, 2 evaluations each
     python bench/bench_campaign_throughput.py --per-worker 1 --noop 500 --json out.json
@@ -62,7 +64,9 @@ def run_batch(workers: int, fn, payloads: list[dict], timeout: float) -> dict:
         results = list(runner.run(fn, tasks))
         wall = time.perf_counter() - t0
     statuses = [r.status if r.status != "done" else (r.record or {}).get("status", "done") for r in results]
+    busy = sum(r.seconds for r in results) / (workers * wall)  # share of the wall time workers spent on tasks
     return {"workers": workers, "tasks": len(tasks), "wall_s": wall, "per_hour": len(tasks) / wall * 3600,
+            "utilisation": busy,
             "task_s": [r.seconds for r in results], "statuses": statuses,
             "load_before": load_before, "load_after": os.getloadavg()[0]}
 
@@ -98,7 +102,8 @@ def main(argv: list[str] | None = None) -> int:
         out["runs"].append(run)
         print(f"{workers} worker(s): {run['tasks']} {args.level} evaluations in {run['wall_s']:.1f} s -> "
               f"{run['per_hour']:.1f} evaluations/hour; mean evaluation {statistics.mean(run['task_s']):.1f} s; "
-              f"statuses {sorted(set(run['statuses']))}; load {run['load_before']:.1f} -> {run['load_after']:.1f}")
+              f"workers busy {run['utilisation'] * 100:.0f} % of the time; statuses {sorted(set(run['statuses']))}; "
+              f"load {run['load_before']:.1f} -> {run['load_after']:.1f}")
 
     rates = {r["workers"]: r["per_hour"] for r in out["runs"]}
     if 1 in rates and 2 in rates:

@@ -391,7 +391,7 @@ class _Attempt:
 
 
 class DaskRunner(Runner):
-    """Runs tasks on a dask cluster: submit all, gather as completed, time out, resubmit lost ones."""
+    """Runs tasks on a dask cluster: submit to free threads, gather as completed, time out, resubmit lost ones."""
 
     #: Scheduler settings where this runner creates the scheduler (see the module docstring).
     SCHEDULER_CONFIG: ClassVar[dict] = {"distributed.scheduler.allowed-failures": 0,

@@ -183,6 +183,6 @@ def test_a_task_past_its_timeout_is_yielded_as_timeout_and_the_others_finish(thr
     results = {r.key: r for r in thread_runner.run(sleep_then_echo, tasks_sleeping(2.5, 0.1, 0.1))}
     assert results["k0"].status == "timeout" and results["k0"].record is None
     assert "timeout of 1 s" in results["k0"].reason and results["k0"].worker
-    assert results["k0"].seconds == pytest.approx(1.0, abs=0.4)
+    assert 1.0 <= results["k0"].seconds < 1.8  # yielded at the timeout (+ a poll interval), not at the end
     assert results["k1"].status == results["k2"].status == "done"
-    assert time.monotonic() - t0 < 2.0  # not waiting for the 2.5 s sleep
+    assert time.monotonic() - t0 < 2.3  # not waiting for the 2.5 s sleep
