@@ -24,7 +24,6 @@ equals that of an uninterrupted run with the same seed.
 
 from __future__ import annotations
 
-import math
 import signal
 import time
 from collections.abc import Callable, Iterator, Sequence
@@ -331,10 +330,9 @@ class _Loop:
 
     def _row(self, key: str, g: int, x: np.ndarray, a: Assessment, *, result=None, submitted=None) -> EvaluationRow:
         record = (result.record if result is not None else None) or {}
-        parameters = (self.problem.blade_parameters(x) if hasattr(self.problem, "blade_parameters")
-                      else self.problem.parameters(x))
         return EvaluationRow(
-            key=key, generation=g, x=[float(v) for v in x], parameters=parameters, status=a.status,
+            key=key, generation=g, x=[float(v) for v in x], parameters=self.problem.stored_parameters(x),
+            status=a.status,
             reason=a.reason, minimised=a.minimised, constraints=a.constraints, convergence=a.convergence,
             objectives=a.objectives, figures=record.get("figures"), monitors=record.get("monitors"),
             cells=record.get("cells"), iterations=record.get("iterations"), seconds=record.get("seconds"),
@@ -462,6 +460,3 @@ def final_population(store: Store) -> list[str]:
     last = store.last_generation()
     return [] if last is None else list(last.members)
 
-
-def _isfinite(v) -> bool:
-    return v is not None and math.isfinite(v)

@@ -128,9 +128,17 @@ class CampaignProblem:
         """``{name: value}`` of the design variables of ``x``."""
         return {n: float(v) for n, v in zip(self.names, x, strict=True)}
 
+    def stored_parameters(self, x: np.ndarray) -> dict[str, float]:
+        """The parameters stored with design ``x`` (the blade's include its fixed ones)."""
+        return self.parameters(x)
+
     def check(self, x: np.ndarray) -> Feasibility:
         """Geometric feasibility (none for the analytic problem)."""
         return Feasibility(())
+
+    def prescreen(self, X: np.ndarray) -> np.ndarray:
+        """``(n,)`` bool: cheap necessary conditions of feasibility (none here)."""
+        return np.ones(len(X), bool)
 
     def payload(self, x: np.ndarray) -> dict:
         raise NotImplementedError
@@ -259,6 +267,8 @@ class BladeProblem(CampaignProblem):
         """Every blade parameter (fixed ones included) of design ``x``."""
         return dict(self.space.spec(x).values)
 
+    stored_parameters = blade_parameters
+
     def check(self, x: np.ndarray) -> Feasibility:
         from geometry import evaluate_blade
 
@@ -334,7 +344,7 @@ def initial_population(problem: CampaignProblem, size: int, seed: int, max_draws
     draws, budget, batch = 0, max_draws * size, max(4 * size, 64)
     while len(found) < size and draws < budget:
         X = problem.lower + (problem.upper - problem.lower) * rng.random((min(batch, budget - draws), problem.n_var))
-        screened = problem.prescreen(X) if hasattr(problem, "prescreen") else np.ones(len(X), bool)
+        screened = problem.prescreen(X)
         for i, x in enumerate(X):
             if screened[i] and problem.check(x).feasible:
                 found.append(x)
