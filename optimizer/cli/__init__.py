@@ -4,11 +4,12 @@ Each module of :data:`COMMANDS` has ``register(subparsers)``, which adds its com
 ``run(args) -> exit status`` default; a new command group is one module and one entry here.
 :mod:`optimizer.cli.common` holds what they share.
 
-Exit status: 0 success, 2 bad input (configuration, override, file), 3 the blade is infeasible (its
-constraints are printed; files are still written when the profile could be built), 4 a stage failed
-(the mesh could not be built or is below the quality thresholds, or the flow solve diverged; the reason is
-printed). ``millfoil evaluate`` returns 0 whenever the solve ran (its status, possibly ``not_converged``, is
-printed).
+Exit status (``docs/errors.md``): 0 success, 2 bad input (configuration, override, option, output location;
+refused before any stage runs), 3 the blade is infeasible (its constraints are printed; files are still
+written when the profile could be built), 4 a stage failed (the mesh could not be built or is below the
+quality thresholds, the flow solve diverged, an output could not be written; the reason is printed).
+``millfoil evaluate`` returns 0 whenever the solve ran (its status, possibly ``not_converged``, is printed).
+Every error is one line ``millfoil: error: ...`` on stderr.
 """
 
 from __future__ import annotations
@@ -18,8 +19,9 @@ import sys
 from collections.abc import Sequence
 
 from optimizer.cli import blade, campaign, evaluate, mesh, validate
-from optimizer.cli.common import EXIT_FAILED, EXIT_INFEASIBLE, EXIT_INPUT, EXIT_OK
+from optimizer.cli.common import EXIT_FAILED, EXIT_INFEASIBLE, EXIT_INPUT, EXIT_OK, HelpFormatter
 from optimizer.config import ConfigError
+from optimizer.saving import WriteFailure
 
 __all__ = ["COMMANDS", "EXIT_FAILED", "EXIT_INFEASIBLE", "EXIT_INPUT", "EXIT_OK", "main"]
 
@@ -39,6 +41,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     except ConfigError as exc:
         print(f"millfoil: error: {exc}", file=sys.stderr)
         return EXIT_INPUT
+    except WriteFailure as exc:
+        print(f"millfoil: error: {exc}", file=sys.stderr)
+        return EXIT_FAILED
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -46,8 +51,12 @@ def _parser() -> argparse.ArgumentParser:
         prog="millfoil",
         description="Multi-objective shape optimisation of hydraulic blade profiles, designed directly or "
         "through the milling tool path that machines them (Vessaz et al. 2013).",
+        epilog="Exit status: 0 success, 2 bad input, 3 infeasible blade, 4 a stage failed (docs/errors.md).",
+        formatter_class=HelpFormatter,
     )
     sub = parser.add_subparsers(title="commands", metavar="COMMAND")
     for module in COMMANDS:
         module.register(sub)
+    for command in sub.choices.values():
+        command.formatter_class = HelpFormatter   # one help layout for every command, wrapped
     return parser

@@ -8,10 +8,16 @@ import sys
 import time
 from pathlib import Path
 
-from geometry import DEFAULT_TOLERANCE, parameters_of
+from geometry import DEFAULT_TOLERANCE, BladeSpec, parameters_of
 from optimizer.cli.common import EXIT_FAILED, EXIT_INFEASIBLE, EXIT_OK, config_arguments, load
 from optimizer.config import ConfigError
 from optimizer.pipeline import StageFailure, build_blade
+from optimizer.saving import PLOT_SUFFIXES, check_output_file, write_all
+
+#: ``--tolerance`` range relative to the blade's largest length (chord, offsets, cutter radius), m/m.
+#: Below it the N-buffer needs millions of needles (minutes); above it the outline is no longer the blade.
+#: The default 1 µm is 1e-5 of the Table 4 chord.
+TOLERANCE_RANGE = (1e-8, 1e-2)
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -33,7 +39,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     profile.add_argument("--out", type=Path, metavar="CSV", help="write the profile points (x,y in m)")
     profile.add_argument("--plot", type=Path, metavar="PNG", help="write a figure of the blade")
     profile.add_argument("--tolerance", type=float, default=DEFAULT_TOLERANCE, metavar="M",
-                         help=f"distance from the exact curves/envelope, m (default {DEFAULT_TOLERANCE:g})")
+                         help=f"distance from the exact curves/envelope, m (default {DEFAULT_TOLERANCE:g}; "
+                         f"{TOLERANCE_RANGE[0]:g} to {TOLERANCE_RANGE[1]:g} times the blade's largest length)")
     profile.add_argument("--json", action="store_true", help="print the summary as JSON")
     profile.set_defaults(run=run_profile)
 
@@ -51,8 +58,9 @@ def register(sub: argparse._SubParsersAction) -> None:
 def run_profile(args: argparse.Namespace) -> int:
     config = load(args)
     blade_spec = config.blade.blade_spec()
-    if not args.tolerance > 0:
-        raise ConfigError(f"--tolerance must be positive, got {args.tolerance}")
+    check_tolerance(args.tolerance, blade_spec)
+    outputs = {"csv": args.out and check_output_file(args.out, "--out", (".csv",)),
+               "plot": args.plot and check_output_file(args.plot, "--plot", PLOT_SUFFIXES)}
     start = time.perf_counter()
     try:
         result = build_blade(config, args.tolerance)
@@ -78,17 +86,32 @@ def run_profile(args: argparse.Namespace) -> int:
         if profile.machining is not None:
             summary.update(cutter_positions=profile.machining.cutter_positions,
                            gouged_needle_fraction=profile.machining.gouged_fraction)
-        if args.out:
-            profile.to_csv(args.out)
-            summary["csv"] = str(args.out)
-        if args.plot:
-            from geometry.plot import plot_profile  # matplotlib is slow to import; only when asked
-
-            plot_profile(profile, args.plot)
-            summary["plot"] = str(args.plot)
+        write_all(_profile_files(profile, **outputs))
+        summary.update({key: str(path) for key, path in outputs.items() if path})
 
     print(json.dumps(summary, indent=2) if args.json else _describe_profile(summary))
     return EXIT_OK if result.feasible else EXIT_INFEASIBLE
+
+
+def check_tolerance(tolerance: float, blade_spec: BladeSpec) -> None:
+    """ConfigError unless ``tolerance`` (m) is within :data:`TOLERANCE_RANGE` of the blade's largest length."""
+    units = parameters_of(blade_spec.mode, blade_spec.continuity)
+    size = max(v for name, v in blade_spec.values.items() if units[name].unit == "m")
+    low, high = (f * size for f in TOLERANCE_RANGE)
+    if not low <= tolerance <= high:     # also refuses nan and inf
+        raise ConfigError(f"--tolerance {tolerance:g} m is outside [{low:.3g}, {high:.3g}] m, i.e. "
+                          f"{TOLERANCE_RANGE[0]:g} to {TOLERANCE_RANGE[1]:g} times the blade's largest length "
+                          f"({size:g} m): a smaller one costs minutes, a larger one is not the blade")
+
+
+def _profile_files(profile, csv: Path | None, plot: Path | None) -> list:
+    """The ``(path, write)`` pairs of the asked-for outputs of ``profile`` (written together)."""
+    files = [(csv, profile.to_csv)] if csv else []
+    if plot:
+        from geometry.plot import plot_profile  # matplotlib is slow to import; only when asked
+
+        files.append((plot, lambda path: plot_profile(profile, path)))
+    return files
 
 
 def _describe_profile(s: dict) -> str:

@@ -1,9 +1,11 @@
-"""What the ``millfoil`` commands share: exit statuses, the configuration arguments, progress lines."""
+"""What the ``millfoil`` commands share: exit statuses, the configuration arguments, progress lines, the
+help layout."""
 
 from __future__ import annotations
 
 import argparse
 import sys
+import textwrap
 from pathlib import Path
 
 from optimizer.config import Config, load_config
@@ -42,3 +44,17 @@ def progress_printer(quiet: bool):
     if quiet:
         return None
     return lambda line: print(f"millfoil: {line}", file=sys.stderr, flush=True)
+
+
+class HelpFormatter(argparse.RawDescriptionHelpFormatter):
+    """``--help`` layout: prose lines of a description or epilog are wrapped to the terminal width; lines
+    that start with a space (examples, lists) and blank lines are kept as written."""
+
+    def _fill_text(self, text: str, width: int, indent: str) -> str:
+        lines = []
+        for line in text.splitlines():
+            if not line.strip() or line[0].isspace():
+                lines.append(indent + line)
+            else:
+                lines += textwrap.wrap(line, width, initial_indent=indent, subsequent_indent=indent)
+        return "\n".join(lines)

@@ -18,7 +18,7 @@ from optimizer.cli.common import (
 from optimizer.config import Config, ConfigError
 from optimizer.evaluation import Evaluation
 from optimizer.pipeline import evaluate
-from optimizer.saving import save
+from optimizer.saving import check_output_directory, save
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -55,6 +55,8 @@ def run_evaluate(args: argparse.Namespace) -> int:
     config = load(args)
     if args.every < 0:
         raise ConfigError(f"--every must be >= 0, got {args.every}")
+    if args.save:
+        check_output_directory(args.save, "--save")    # before the solve, not after it
     evaluation = evaluate(config, log=progress_printer(args.quiet), every=args.every)
     written = save(evaluation, config, args.save) if args.save else []
     if args.json:

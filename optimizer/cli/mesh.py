@@ -9,6 +9,7 @@ from pathlib import Path
 
 from optimizer.cli.common import EXIT_FAILED, EXIT_INFEASIBLE, EXIT_OK, config_arguments, level_argument, load
 from optimizer.pipeline import StageFailure, blade_mesh, blade_profile
+from optimizer.saving import MESH_SUFFIXES, PLOT_SUFFIXES, check_output_file, write_all
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -28,7 +29,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     config_arguments(mesh)
     level_argument(mesh)
-    mesh.add_argument("--out", type=Path, metavar="FILE", help="write the mesh (.msh gmsh 2.2, .vtu, ...)")
+    mesh.add_argument("--out", type=Path, metavar="FILE",
+                      help=f"write the mesh: .msh (gmsh 2.2), or {', '.join(MESH_SUFFIXES[1:])} (meshio)")
     mesh.add_argument("--plot", type=Path, metavar="PNG", help="write a figure: O-layer, leading and trailing edge")
     mesh.add_argument("--json", action="store_true", help="print the summary as JSON")
     mesh.set_defaults(run=run_mesh)
@@ -36,6 +38,8 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 def run_mesh(args: argparse.Namespace) -> int:
     config = load(args)
+    outputs = {"file": args.out and check_output_file(args.out, "--out", MESH_SUFFIXES),
+               "plot": args.plot and check_output_file(args.plot, "--plot", PLOT_SUFFIXES)}
     try:
         profile = blade_profile(config)
     except StageFailure as failure:
@@ -54,19 +58,23 @@ def run_mesh(args: argparse.Namespace) -> int:
     summary = {"level": mesh_spec.level, "points": mesh.n_points, **mesh.cell_counts(), "cells": mesh.n_cells,
                "first_cell_height_m": mesh.info["first_cell_height"], "layers": mesh.info["layers"],
                "seconds": mesh.info["time_total"], "quality": report.summary()}
-    if args.out:
-        mesh.write(args.out)
-        summary["file"] = str(args.out)
-    if args.plot:
-        from meshing import plot_mesh
-
-        plot_mesh(mesh, args.plot, profile)
-        summary["plot"] = str(args.plot)
+    write_all(_mesh_files(mesh, profile, **outputs))
+    summary.update({key: str(path) for key, path in outputs.items() if path})
     if args.json:
         print(json.dumps(summary, indent=2))
     else:
         print(_describe_mesh(summary, mesh_spec, profile.chord))
     return EXIT_OK
+
+
+def _mesh_files(mesh, profile, file: Path | None, plot: Path | None) -> list:
+    """The ``(path, write)`` pairs of the asked-for outputs (written together: both or neither)."""
+    files = [(file, mesh.write)] if file else []
+    if plot:
+        from meshing import plot_mesh  # matplotlib is slow to import; only when asked
+
+        files.append((plot, lambda path: plot_mesh(mesh, path, profile)))
+    return files
 
 
 def _describe_mesh(summary: dict, mesh_spec, chord: float) -> str:

@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 import argparse
+import inspect
 import json
+import textwrap
 
 from optimizer.cli.common import EXIT_FAILED, EXIT_OK, LEVEL_CHOICES
 from optimizer.config import ConfigError
@@ -48,13 +50,40 @@ def run_validate(args: argparse.Namespace) -> int:
             print(json.dumps({"name": c.name, "computed": c.computed, "reference": c.reference,
                               "error": c.error, "tolerance": c.tolerance, "pass": c.passed}))
     else:
-        print(f"{report.case} ({report.level}): {report.description}")
+        print(textwrap.fill(f"{report.case} ({report.level}): {_description(CASES[args.case], report.description)}",
+                            width=100, subsequent_indent="  "))
         width = max(len(c.name) for c in report.comparisons)
         print(f"  {'quantity':{width}s} {'computed':>12s} {'reference':>12s} {'error':>10s} {'tolerance':>10s}")
         for c in report.comparisons:
             print(f"  {c.name:{width}s} {c.computed:12.6g} {c.reference:12.6g} {c.error:10.4g} {c.tolerance:10.4g}"
                   f"  {'pass' if c.passed else 'FAIL'}")
-        details = ", ".join(f"{k} {v}" for k, v in report.details.items())
-        print(f"  {details}; {report.seconds:.1f} s")
+        print("\n".join(_details(report.details, "  ")))
+        print(f"  {report.seconds:.1f} s")
         print("PASSED" if report.passed else "FAILED")
     return EXIT_OK if report.passed else EXIT_FAILED
+
+
+def _description(case, fallback: str) -> str:
+    """The first paragraph of the case's docstring, whole (the report keeps only its first line)."""
+    doc = inspect.getdoc(case) or fallback
+    return " ".join(doc.split("\n\n")[0].split())
+
+
+def _details(details: dict, indent: str) -> list[str]:
+    """Lines ``name: key value, key value`` for a report's details; nested sections on their own lines."""
+    flat = {k: v for k, v in details.items() if not isinstance(v, dict | list)}
+    lines = [textwrap.fill(", ".join(f"{k} {_value(v)}" for k, v in flat.items()), width=100,
+                           initial_indent=indent, subsequent_indent=indent + "  ")] if flat else []
+    for key, value in details.items():
+        if isinstance(value, dict):
+            lines.append(f"{indent}{key}:")
+            lines += _details(value, indent + "  ")
+        elif isinstance(value, list):
+            lines.append(f"{indent}{key}:")
+            for item in value:
+                lines += _details(item, indent + "  ") if isinstance(item, dict) else [f"{indent}  {_value(item)}"]
+    return lines
+
+
+def _value(v) -> str:
+    return f"{v:.4g}" if isinstance(v, float) else str(v)
