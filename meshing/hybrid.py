@@ -591,7 +591,8 @@ def far_field(gmsh, ring: np.ndarray, box: tuple[float, float, float, float], sp
     x0, x1, y0, y1 = box
     lo, hi = ring.min(axis=0), ring.max(axis=0)
     if not (x0 < lo[0] and hi[0] < x1 and y0 < lo[1] and hi[1] < y1):
-        raise MeshingError(f"the domain {box} does not contain the O-layer (bounds {lo}, {hi}): "
+        raise MeshingError(f"the domain x in [{x0:.4g}, {x1:.4g}] m, y in [{y0:.4g}, {y1:.4g}] m does not contain "
+                           f"the O-layer (x in [{lo[0]:.4g}, {hi[0]:.4g}] m, y in [{lo[1]:.4g}, {hi[1]:.4g}] m): "
                            "increase upstream, downstream or half_height")
     corners = np.array([(x0, y0), (x1, y0), (x1, y1), (x0, y1)])
     names = ("bottom", "outlet", "top", "inlet")
