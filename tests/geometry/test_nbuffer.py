@@ -151,20 +151,26 @@ def two_piece_g0():
 
 def test_a_blade_machined_into_two_pieces_is_reported_split():
     spec, pieces = two_piece_g0()
-    exact = exact_machined(pieces, R)
-    assert exact.geom_type == "MultiPolygon" and len(exact.geoms) == 2  # the reference: two pieces
     result = machine(pieces, R)
     assert result.split and result.pieces == 2 and not result.intact and result.unlinked.shape == (0, 2)
-    # Both outlines close, and each lies within the tolerance of its exact piece, sharp tips included.
-    outlines = [result.points, *result.other_outlines]
-    for outline in outlines:
-        piece = max(exact.geoms, key=lambda g: shapely.Polygon(outline).intersection(g).area)
-        assert hausdorff(outline, piece) <= TOLERANCE
     with pytest.raises(GeometryError, match="splits into 2 pieces"):
         build_profile(spec)
     blade = evaluate_blade(spec)
     intact = next(c for c in blade.constraints if c.name == "machined_intact")
     assert not blade.feasible and intact.value > 0 and "splits into 2 pieces" in intact.reason
+
+
+@pytest.mark.slow
+def test_both_pieces_of_the_split_blade_lie_within_one_micrometre():
+    """Both outlines close, and each lies within the tolerance of its exact piece, sharp tips included (the
+    front piece's tip used to be 2 µm off, the rear piece's outline did not close by 2.6 µm)."""
+    _, pieces = two_piece_g0()
+    exact = exact_machined(pieces, R)
+    assert exact.geom_type == "MultiPolygon" and len(exact.geoms) == 2  # the reference: two pieces
+    result = machine(pieces, R)
+    for outline in [result.points, *result.other_outlines]:
+        piece = max(exact.geoms, key=lambda g: shapely.Polygon(outline).intersection(g).area)
+        assert hausdorff(outline, piece) <= TOLERANCE
 
 
 def test_stretches_that_cannot_be_linked_are_flagged_not_dropped(monkeypatch):
