@@ -61,10 +61,10 @@ def shorten(value: Any) -> str:
 
 
 class _Frozen(BaseModel):
-    """Base of every configuration section: unknown keys are errors, the result is frozen, and a boolean is
-    never read as a number (``alpha: true`` would otherwise be 1)."""
+    """Base of every configuration section: unknown keys are errors, the result is frozen, numbers are
+    finite, and a boolean is never read as a number (``alpha: true`` would otherwise be 1)."""
 
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
     @field_validator("*", mode="before")
     @classmethod
@@ -412,7 +412,7 @@ def _override_path(key: str, schema: type[Config]) -> tuple[str, ...]:
     """The path into the configuration of the dotted ``key`` (a bare non-section name is a blade parameter)."""
     path = tuple(key.split("."))
     if any(not part.strip() for part in path):
-        raise ConfigError(f"--set {shorten(key)}: a key is dotted names, e.g. blade.mode or alpha")
+        raise ConfigError(f"--set {_short_key(key)}: a key is dotted names, e.g. blade.mode or alpha")
     if len(path) == 1 and path[0] not in schema.model_fields:
         path = ("blade", "parameters", path[0])
     return path
