@@ -1,0 +1,129 @@
+"""A campaign run as the report and the NC export read it: the store, read-only, and nothing else.
+
+Works on a campaign that is still running (SQLite WAL: readers never block the driver) and shows what is
+finished. Each stored design gets a **design number**: the order in which the store received it (the
+SQLite ``rowid`` of its ``evaluations`` row, 1, 2, …), which never changes once the design is stored;
+``millfoil export RUN --id N`` and the report use it.
+"""
+
+from __future__ import annotations
+
+import sqlite3
+from dataclasses import dataclass, field
+from functools import cached_property
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from optimizer.campaign.store import STORE_NAME, CampaignRow, EvaluationRow, GenerationRow, Store
+
+
+class RunError(ValueError):
+    """A run directory without a readable campaign store, or a design it does not hold."""
+
+
+@dataclass(frozen=True)
+class Design:
+    """One stored evaluation with its design number (see the module docstring)."""
+
+    number: int
+    row: EvaluationRow
+
+    @property
+    def key(self) -> str:
+        return self.row.key
+
+
+@dataclass(frozen=True)
+class Run:
+    """Everything a report needs from one run directory (read once; a snapshot of a running campaign).
+
+    directory: the run directory. campaign: the ``campaign`` row. config: the resolved campaign as a mapping
+    (the stored YAML). designs: every stored evaluation in store order. generations: the finished
+    generations.
+    """
+
+    directory: Path
+    campaign: CampaignRow
+    config: dict[str, Any]
+    designs: tuple[Design, ...]
+    generations: tuple[GenerationRow, ...] = field(default=())
+
+    @property
+    def name(self) -> str:
+        return self.directory.resolve().name
+
+    @property
+    def analytic(self) -> bool:
+        return bool(self.config.get("analytic"))
+
+    @property
+    def mode(self) -> str:
+        return str((self.config.get("blade") or {}).get("mode", "design"))
+
+    @property
+    def continuity(self) -> str:
+        return str((self.config.get("blade") or {}).get("continuity", "C2"))
+
+    @property
+    def objectives(self) -> list[dict[str, Any]]:
+        return list(self.config.get("objectives") or [])
+
+    @property
+    def labels(self) -> list[str]:
+        """Objective labels as the store keys them (``|fy|``, ``c_max``)."""
+        return [("|" + o["figure"] + "|") if o.get("abs") else o["figure"] for o in self.objectives]
+
+    @cached_property
+    def by_key(self) -> dict[str, Design]:
+        return {d.key: d for d in self.designs}
+
+    def design(self, ident: str | int) -> Design:
+        """A design by number (``12``: fewer than 6 digits) or by key or unique key prefix (at least 6
+        hexadecimal characters)."""
+        text = str(ident).strip()
+        if text.isdigit() and len(text) < 6:
+            for d in self.designs:
+                if d.number == int(text):
+                    return d
+            last = self.designs[-1].number if self.designs else 0
+            raise RunError(f"{self.directory}: no design number {text} (the store holds {len(self.designs)} "
+                           f"designs, numbered 1 to {last})")
+        if len(text) < 6:
+            raise RunError(f"--id {text!r}: give a design number or at least 6 characters of a design key")
+        found = [d for d in self.designs if d.key.startswith(text.lower())]
+        if len(found) != 1:
+            raise RunError(f"{self.directory}: {'no' if not found else str(len(found))} design key(s) start "
+                           f"with {text!r}")
+        return found[0]
+
+
+def load_run(directory: str | Path) -> Run:
+    """Read a run directory's store (read-only). Raises :class:`RunError` if there is none."""
+    directory = Path(directory)
+    path = directory / STORE_NAME
+    if not path.exists():
+        raise RunError(f"{directory}: no campaign store ({STORE_NAME}); give a run directory of `millfoil run`")
+    try:
+        with Store(path, readonly=True) as store:
+            campaign = store.campaign()
+            rows = list(store.evaluations())
+            generations = tuple(store.generations())
+        numbers = _design_numbers(path)
+    except sqlite3.Error as exc:
+        raise RunError(f"{path}: cannot read the campaign store: {exc}") from None
+    if campaign is None:
+        raise RunError(f"{path}: the store holds no campaign yet")
+    config = yaml.safe_load(campaign.config) or {}
+    designs = tuple(sorted((Design(numbers.get(r.key, 0), r) for r in rows), key=lambda d: d.number))
+    return Run(directory, campaign, config, designs, generations)
+
+
+def _design_numbers(path: Path) -> dict[str, int]:
+    """``{key: rowid}`` of the ``evaluations`` table (the store's API does not expose the rowid)."""
+    db = sqlite3.connect(f"file:{path}?mode=ro", uri=True, timeout=30.0)
+    try:
+        return {key: rowid for rowid, key in db.execute("SELECT rowid, key FROM evaluations")}
+    finally:
+        db.close()
