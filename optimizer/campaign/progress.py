@@ -12,6 +12,7 @@ job) it writes only the line per finished generation — a log, not a flood.
 
 from __future__ import annotations
 
+import datetime as _dt
 import sys
 from collections.abc import Sequence
 from pathlib import Path
@@ -124,6 +125,7 @@ def status_of(directory: str | Path) -> dict:
         "feasible_share": [g.feasible_share for g in generations],
         "cache_hits": sum(g.cache_hits for g in generations),
         "mean_evaluation_seconds": sum(seconds) / len(seconds) if seconds else None,
+        "last_stored": max((r.finished for r in rows), default=None),
         "mode": None if config.analytic else yaml.safe_load(yaml.safe_dump(config.blade.mode.value)),
     }
 
@@ -131,8 +133,13 @@ def status_of(directory: str | Path) -> dict:
 def format_status(s: dict) -> str:
     """``millfoil status`` text of a :func:`status_of` summary."""
     g = s["generations"]
+    state = s["state"]
+    if state == "running" and s.get("last_stored"):
+        # a driver killed outright cannot say so: how long ago the last result came is the hint
+        age = _dt.datetime.now(_dt.UTC) - _dt.datetime.fromisoformat(s["last_stored"])
+        state += f" (last evaluation stored {duration(age.total_seconds())} ago)"
     lines = [
-        f"campaign {s['directory']}: {s['state']}" + (f" ({s['message']})" if s.get("message") else ""),
+        f"campaign {s['directory']}: {state}" + (f" ({s['message']})" if s.get("message") else ""),
         f"  started {s['started']}" + (f", ended {s['ended']}" if s.get("ended") else "")
         + f"; millfoil {s['version']}, seed {s['seed']}",
         f"  generations {g['done']}/{g['total']} (population {s['population']}); "
