@@ -23,10 +23,48 @@ def ls_gradient(mesh: FVMesh, phi: np.ndarray, phi_b: np.ndarray) -> np.ndarray:
     """Least-squares cell gradient ``(nc, ..., 2)`` of ``phi (nc, ...)`` (units of phi per metre).
 
     ``phi_b``: values at the boundary-face centres ``(nb, ...)``. Exact for a linear field. A vector
-    field ``(nc, 2)`` gives ``grad[c, component, direction]``.
+    field ``(nc, 2)`` gives ``grad[c, component, direction]``. Two sparse products with the operators of
+    :func:`ls_operators` (the weighted sum ``sum_k ls_weights[c, k] (phi_k - phi_c)`` of
+    :attr:`FVMesh.ls_weights`, equal to it up to round-off).
     """
-    dphi = extended(phi, phi_b)[mesh.cell_other] - phi[:, None]
-    return np.einsum("cki,ck...->c...i", mesh.ls_weights, dphi)
+    cell_op, boundary_op = ls_operators(mesh)
+    nc = mesh.n_cells
+    flat = phi.reshape(nc, -1)
+    g = cell_op @ flat + boundary_op @ phi_b.reshape(mesh.n_boundary, -1)    # (2 nc, m), rows (c, direction)
+    g = g.reshape(nc, 2, -1)
+    if phi.ndim == 1:
+        return g[:, :, 0]
+    return np.ascontiguousarray(np.swapaxes(g, 1, 2)).reshape(phi.shape + (2,))
+
+
+def ls_operators(mesh: FVMesh):
+    """The least-squares gradient as two sparse matrices (built once per mesh, cached in ``mesh.info``):
+    ``(cell (2 nc, nc), boundary (2 nc, nb))``, row ``2 c + i`` giving direction ``i`` of cell ``c``'s
+    gradient from the cell values and from the boundary-face values, 1/m.
+
+    Why: the gradient is linear in the values, and one compiled sparse product replaces the gather of the
+    ``(nc, 4)`` stencil values and an ``einsum`` over it (about 5x faster per call, ~11 calls per outer
+    iteration)."""
+    cached = mesh.info.get("ls_operators")
+    if cached is not None:
+        return cached
+    import scipy.sparse as sp
+
+    nc, nb = mesh.n_cells, mesh.n_boundary
+    w = mesh.ls_weights                                                  # (nc, 4, 2)
+    rows = (2 * np.arange(nc)[:, None, None] + np.arange(2)[None, None, :]) * np.ones_like(w, dtype=np.int64)
+    cols = np.broadcast_to(mesh.cell_other[:, :, None], w.shape)
+    diag_rows = 2 * np.arange(nc)[:, None] + np.arange(2)[None, :]       # -sum_k w[c, k, i] on column c
+    diag_cols = np.broadcast_to(np.arange(nc)[:, None], (nc, 2))
+    r = np.concatenate([rows.ravel(), diag_rows.ravel()])
+    c = np.concatenate([cols.ravel(), diag_cols.ravel()])
+    v = np.concatenate([w.ravel(), -w.sum(axis=1).ravel()])
+    full = sp.csr_matrix((v, (r, c)), shape=(2 * nc, nc + nb))
+    full.sum_duplicates()
+    full.eliminate_zeros()
+    out = (full[:, :nc].tocsr(), full[:, nc:].tocsr())
+    mesh.info["ls_operators"] = out
+    return out
 
 
 def neighbour_bounds(mesh: FVMesh, phi: np.ndarray, phi_b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

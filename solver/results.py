@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .boundary import BoundaryData
+from .boundary import FIXED, BoundaryData
 from .fvmesh import CELL_TYPES, FVMesh
 from .gradient import ls_gradient
 
@@ -132,7 +132,9 @@ class FlowResults:
         m = self.mesh
         j = m.boundary_local(group)
         f = m.n_internal + j
-        du = self.u[m.owner[f]] - self.boundary.velocity(m, self.u, self.grad_u())[j]
+        # fixed-velocity faces (walls) take their prescribed value: no velocity gradient needed
+        fixed = np.all(self.boundary.velocity_kind[j] == FIXED)
+        du = self.u[m.owner[f]] - self.boundary.velocity(m, self.u, None if fixed else self.grad_u())[j]
         n = m.normal[f]
         du_t = du - np.einsum("ij,ij->i", du, n)[:, None] * n
         dn = np.einsum("ij,ij->i", m.d[f], n)
