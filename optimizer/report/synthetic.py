@@ -46,7 +46,7 @@ def synthetic_run(directory: str | Path, *, mode: str = "toolpath", population: 
     names = [n for n in base if n not in _FIXED]
     with Store(directory / STORE_NAME, sync="normal") as store:
         store.start_campaign(config.to_yaml(), seed, "0.1.0")
-        store.set_reference([-40.0, 16.0])
+        store.set_reference([-10000.0, 16.0])
         members: list[str] = []
         for g in range(generations):
             keys = []
@@ -83,15 +83,18 @@ def _row(key: str, generation: int, names: list[str], values: dict, rng: np.rand
                              seconds={"geometry": 0.2, "mesh": 3.0, "total": 3.2}, wall_seconds=3.3)
     cls = "oscillating" if draw > 0.75 else ("stationary" if draw > 0.6 else "converged")
     amplitude = 0.008 * lift if cls == "oscillating" else 0.0
-    figures = {"fx": 0.1 * lift, "fy": -lift, "c_l": lift / 20.0, "c_max": c_max, "cp_min": 1 - c_max**2 / 100.0,
+    span = 0.004                                  # 0.04 L, m: lift is in N over the span, fy in N/m
+    fy = -lift / span
+    figures = {"fx": 0.1 * lift / span, "fy": fy, "fx_span": 0.1 * lift, "fy_span": -lift,
+               "c_l": lift / (0.5 * 998.2 * 10.0**2 * 0.1 * span), "c_max": c_max, "cp_min": 1 - c_max**2 / 100.0,
                "yplus_max": 80.0, "yplus_mean": 35.0}
-    monitors = {"fy:blade": {"mean": -lift, "amplitude": amplitude, "drift": 0.0, "period": 40 if amplitude else None,
-                             "status": cls},
+    monitors = {"fy:blade": {"mean": fy, "amplitude": amplitude / span, "drift": 0.0,
+                             "period": 40 if amplitude else None, "status": cls},
                 "c_max": {"mean": c_max, "amplitude": amplitude * c_max / lift, "drift": 0.0,
                           "period": 40 if amplitude else None, "status": cls}}
     solve = 40.0 + 30.0 * rng.random()
-    return EvaluationRow(**base, status="ok", reason="", convergence=cls, objectives={"|fy|": lift, "c_max": c_max},
-                         minimised=[-lift, c_max], constraints=constraints, figures=figures, monitors=monitors,
+    return EvaluationRow(**base, status="ok", reason="", convergence=cls, objectives={"|fy|": -fy, "c_max": c_max},
+                         minimised=[fy, c_max], constraints=constraints, figures=figures, monitors=monitors,
                          cells=9000 + int(2000 * rng.random()), iterations=800 + int(600 * rng.random()),
                          seconds={"geometry": 0.2, "mesh": 3.0, "solve": solve, "post": 0.3, "total": solve + 3.5},
                          wall_seconds=solve + 3.6)
@@ -106,13 +109,13 @@ def _survivors(store: Store, keys: list[str], size: int) -> list[str]:
     """The best ``size`` of ``keys``: feasible first, by |F_Y| − 5 C_max (a stand-in for NSGA-II)."""
     rows = store.get_many(keys)
     return sorted(dict.fromkeys(keys), key=lambda k: (not rows[k].feasible,
-                                                      rows[k].minimised[0] + 5 * rows[k].minimised[1]))[:size]
+                                                      rows[k].minimised[0] / 250.0 + 5 * rows[k].minimised[1]))[:size]
 
 
 def _generation(store: Store, g: int, members: list[str], offspring: list[str]) -> GenerationRow:
     rows = store.get_many(members + offspring)
     F = np.array([rows[k].minimised for k in members if rows[k].feasible])
-    hv = _hypervolume(F, np.array([-40.0, 16.0])) if len(F) else None
+    hv = _hypervolume(F, np.array([-10000.0, 16.0])) if len(F) else None
     feasible = sum(rows[k].status != "infeasible" for k in offspring)
     return GenerationRow(g, members, [0 if rows[k].feasible else None for k in members],
                          [1.0 if rows[k].feasible else None for k in members], offspring, feasible,

@@ -1,0 +1,156 @@
+"""The report's figures, drawn with matplotlib (Agg) into SVG files with text as paths (no fonts needed).
+
+Pareto planes (Fig. 9–11 style), the geometry gallery (Fig. 12–13: blades rebuilt from their stored
+parameters with :mod:`geometry`, milliseconds each) and the campaign's health per generation.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+from optimizer.report.analysis import Health, Point, front  # noqa: E402
+from optimizer.report.run import Run  # noqa: E402
+
+plt.rcParams.update({"svg.fonttype": "path", "font.size": 9, "svg.hashsalt": "millfoil"})
+
+#: Marker of each status that has values (solved, possibly rejected); feasible accepted designs are dots.
+STATUS_MARKERS = {"ok": "o", "oscillating": "x", "not_converged": "+", "diverged": "1", "timeout": "2"}
+RUN_MARKERS = ("o", "s", "^", "D", "v", "P", "*", "h")
+AXES = {"fy": "|F_Y| over the span [N]", "cl": "C_L [-]", "cmax": "C_max [m/s]", "cpmin": "|C_p,min| [-]"}
+
+
+def pareto_figure(runs: list[tuple[Run, list[Point]]], x: str, y: str, path: Path) -> Path:
+    """Every solved design of every run in the (x, y) plane: accepted feasible designs as filled markers
+    shaded by generation, rejected or constraint-violating ones as open markers by status, oscillating ones
+    with their amplitude as error bars, each run's front as a line."""
+    fig, ax = plt.subplots(figsize=(6.4, 4.4))
+    gmax = max([max((p.design.row.generation for p in pts), default=0) for _, pts in runs] + [1])
+    norm = matplotlib.colors.Normalize(0, gmax)
+    cmap = matplotlib.colormaps["viridis"]
+    for k, (run, pts) in enumerate(runs):
+        marker = RUN_MARKERS[k % len(RUN_MARKERS)]
+        colour = f"C{k % 10}"
+        good = [p for p in pts if p.feasible]
+        bad = [p for p in pts if not p.feasible]
+        osc = [p for p in good if p.value("d" + x) or p.value("d" + y)]
+        if osc:
+            ax.errorbar([p.value(x) for p in osc], [p.value(y) for p in osc],
+                        xerr=[p.value("d" + x) for p in osc], yerr=[p.value("d" + y) for p in osc], fmt="none",
+                        ecolor="0.4", elinewidth=0.8, capsize=2, zorder=2)
+        if good:
+            ax.scatter([p.value(x) for p in good], [p.value(y) for p in good],
+                       c=[p.design.row.generation for p in good], cmap=cmap, norm=norm, marker=marker, s=22,
+                       edgecolors=colour, linewidths=0.6, zorder=3, label=f"{run.name}: {len(good)} feasible")
+        for status in sorted({p.status for p in bad}):
+            sel = [p for p in bad if p.status == status]
+            ax.scatter([p.value(x) for p in sel], [p.value(y) for p in sel], marker=STATUS_MARKERS.get(status, "x"),
+                       color="firebrick" if status != "ok" else "0.5", s=26, linewidths=0.9, zorder=2,
+                       label=f"{run.name}: {len(sel)} {'constraint violated' if status == 'ok' else status}")
+        f = front(pts, x, y) if x in ("cmax", "cpmin") else front(pts, y, x)
+        if len(f) > 1:
+            ax.plot([p.value(x) for p in f], [p.value(y) for p in f], "-", color=colour, lw=1.2, zorder=4,
+                    label=f"{run.name}: front ({len(f)})")
+    ax.set_xlabel(AXES[x])
+    ax.set_ylabel(AXES[y])
+    ax.grid(alpha=0.3)
+    if any(pts for _, pts in runs):
+        sm = matplotlib.cm.ScalarMappable(norm=norm, cmap=cmap)
+        fig.colorbar(sm, ax=ax, label="generation")
+        ax.legend(fontsize=7, loc="best")
+    else:
+        ax.text(0.5, 0.5, "no solved design yet", transform=ax.transAxes, ha="center", va="center")
+    fig.tight_layout()
+    fig.savefig(path)
+    plt.close(fig)
+    return path
+
+
+def gallery_figure(run: Run, chosen: list[Point], path: Path) -> Path:
+    """Blades of ``chosen`` rebuilt from their parameters: outline and camber line; for tool-path runs also
+    the tool path, the cutter at the start of the cut and the machined blade (filled)."""
+    from geometry import BladeSpec, build_profile
+    from geometry.profile import GeometryError
+
+    n = max(len(chosen), 1)
+    cols = min(n, 3)
+    rows = -(-n // cols)
+    fig, axes = plt.subplots(rows, cols, figsize=(3.3 * cols, 2.9 * rows), squeeze=False)
+    for ax in axes.flat:
+        ax.set_axis_off()
+    for ax, p in zip(axes.flat, chosen, strict=False):
+        row = p.design.row
+        ax.set_title(f"#{p.design.number}: |F_Y| {p.fy:.1f} N, C_max {p.cmax:.2f} m/s", fontsize=8)
+        try:
+            profile = build_profile(BladeSpec.from_values(run.mode, run.continuity, row.parameters))
+        except (ValueError, GeometryError) as exc:
+            ax.text(0.5, 0.5, f"cannot rebuild: {exc}"[:80], ha="center", va="center", fontsize=7, wrap=True)
+            continue
+        mm = profile.points * 1e3
+        ax.fill(mm[:, 0], mm[:, 1], color="0.85", zorder=1)
+        ax.plot(*np.vstack([mm, mm[:1]]).T, "k-", lw=0.9, zorder=3)
+        camber = profile.curves.camber.points(np.linspace(0, 1, 60)) * 1e3
+        ax.plot(camber[:, 0], camber[:, 1], "--", color="C0", lw=0.8, zorder=2)
+        if profile.tool_path is not None:
+            tp = np.vstack([profile.tool_path, profile.tool_path[:1]]) * 1e3
+            ax.plot(tp[:, 0], tp[:, 1], "-", color="C3", lw=0.8, zorder=2)
+            r = profile.spec["R"] * 1e3
+            for at in (profile.curves.suction.start, profile.curves.suction.end):
+                ax.add_patch(plt.Circle(tuple(at * 1e3), r, fill=False, color="C3", lw=0.6, ls=":"))
+        ax.set_aspect("equal")
+        ax.set_axis_on()
+        ax.tick_params(labelsize=6)
+    handles = [plt.Line2D([], [], color="k", lw=0.9, label="blade" if run.mode == "design" else "machined blade"),
+               plt.Line2D([], [], color="C0", ls="--", lw=0.8, label="camber line")]
+    if run.mode == "toolpath":
+        handles += [plt.Line2D([], [], color="C3", lw=0.8, label="tool path (cutter centre)"),
+                    plt.Line2D([], [], color="C3", ls=":", lw=0.6, label="cutter")]
+    fig.legend(handles=handles, loc="lower center", ncol=len(handles), fontsize=7, frameon=False)
+    fig.tight_layout(rect=(0, 0.06, 1, 1))
+    fig.savefig(path)
+    plt.close(fig)
+    return path
+
+
+def health_figure(h: Health, path: Path) -> Path:
+    """Hypervolume, feasible share of offspring, designs by status and by convergence class per generation,
+    and the histogram of the time per evaluation."""
+    fig, axes = plt.subplots(2, 3, figsize=(10, 5.2))
+    g = np.array(h.generations)
+    ax = axes[0, 0]
+    hv = [np.nan if v is None else v for v in h.hypervolume]
+    ax.plot(g, hv, "o-", ms=3)
+    ax.set_title("hypervolume")
+    ax = axes[0, 1]
+    ax.bar(g, [np.nan if v is None else 100 * v for v in h.feasible_share], color="C2")
+    ax.set_ylim(0, 100)
+    ax.set_title("feasible share of offspring [%]")
+    for ax, counts, title in ((axes[1, 0], h.by_status, "designs by status"),
+                              (axes[1, 1], h.by_class, "solved designs by convergence class")):
+        bottom = np.zeros(len(g))
+        for k, (name, values) in enumerate(counts.items()):
+            ax.bar(g, values, bottom=bottom, label=name, color=f"C{k}")
+            bottom += np.array(values)
+        ax.set_title(title)
+        if counts:
+            ax.legend(fontsize=6)
+    ax = axes[0, 2]
+    ax.bar(g, h.cache_hits, color="C4")
+    ax.set_title("cache hits")
+    ax = axes[1, 2]
+    if h.times:
+        ax.hist(np.array(h.times) / 60.0, bins=min(30, max(5, len(h.times) // 3)), color="C5")
+    ax.set_title("time per evaluation [min]")
+    for ax in axes.flat:
+        ax.grid(alpha=0.3)
+    for ax in (*axes[1, :2], *axes[0, :]):
+        ax.set_xlabel("generation")
+    fig.tight_layout()
+    fig.savefig(path)
+    plt.close(fig)
+    return path

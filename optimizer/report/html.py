@@ -1,0 +1,202 @@
+"""The report page: one static HTML file, its SVG figures and CSV tables beside it.
+
+The page needs no network (no script, no CDN, no web font: inline CSS, figures as relative ``<img>``), and
+every string that comes from a store or a configuration is escaped (:func:`html.escape`).
+"""
+
+from __future__ import annotations
+
+import csv
+import datetime as _dt
+import html
+import os
+import platform
+import sys
+from importlib import metadata
+from pathlib import Path
+
+from optimizer.report.analysis import TABLE7_COLUMNS, gallery, health, paper_row, points, table7
+from optimizer.report.figures import gallery_figure, health_figure, pareto_figure
+from optimizer.report.run import Run
+
+#: Packages whose versions the provenance section lists.
+PACKAGES = ("millfoil", "numpy", "scipy", "shapely", "pymoo", "gmsh", "matplotlib", "dask", "distributed", "ezdxf")
+
+_CSS = """
+body{font-family:sans-serif;max-width:1100px;margin:1em auto;padding:0 1em;color:#222;line-height:1.4}
+h1{font-size:1.5em}h2{font-size:1.2em;border-bottom:1px solid #ccc;margin-top:1.6em}h3{font-size:1em}
+table{border-collapse:collapse;margin:.5em 0;font-size:.85em}td,th{border:1px solid #ccc;padding:2px 6px;
+text-align:right}th{background:#f0f0f0}td.l,th.l{text-align:left}img{max-width:100%;height:auto}
+.note{color:#555;font-size:.85em}pre{background:#f6f6f6;padding:.5em;overflow:auto;font-size:.8em;max-height:30em}
+.paper{color:#555;font-style:italic}nav a{margin-right:1em}
+"""
+
+
+def e(value) -> str:
+    """An escaped string of any value (quotes too: safe in attributes)."""
+    return html.escape(str(value), quote=True)
+
+
+def write_report(runs: list[Run], out: Path) -> Path:
+    """Write ``out/index.html`` with its figures and tables for ``runs``; returns the page's path."""
+    out.mkdir(parents=True, exist_ok=True)
+    pts = [points(r) for r in runs]
+    pairs = list(zip(runs, pts, strict=True))
+    pareto_figure(pairs, "cmax", "fy", out / "pareto_fy_cmax.svg")
+    pareto_figure(pairs, "cpmin", "cl", out / "pareto_cl_cpmin.svg")
+    sections = [_fronts(runs, pts), _summary(runs, pts, out), _gallery(runs, pts, out), _fields(),
+                _health(runs, out), _provenance(runs)]
+    _tables(runs, pts, out)
+    title = "millfoil report: " + ", ".join(r.name for r in runs)
+    now = _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds")
+    states = "; ".join(f"{r.name}: {r.campaign.state}, {len(r.designs)} designs, {len(r.generations)} generations"
+                       for r in runs)
+    page = (f"<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>{e(title)}</title>"
+            f"<style>{_CSS}</style></head><body>\n<h1>{e(title)}</h1>\n"
+            f"<p class=\"note\">Generated {e(now)} from the stores (read-only; a running campaign shows what has "
+            f"finished). {e(states)}.</p>\n<nav><a href=\"#fronts\">Pareto fronts</a><a href=\"#summary\">Summary"
+            "</a><a href=\"#gallery\">Geometry</a><a href=\"#fields\">Fields</a><a href=\"#health\">Health</a>"
+            "<a href=\"#provenance\">Provenance</a></nav>\n" + "\n".join(sections) + "\n</body></html>\n")
+    path = out / "index.html"
+    path.write_text(page, encoding="utf-8")
+    return path
+
+
+def _img(src: str, alt: str) -> str:
+    return f'<p><img src="{e(src)}" alt="{e(alt)}"></p>'
+
+
+def _fronts(runs: list[Run], pts) -> str:
+    missing = []
+    for r, p in zip(runs, pts, strict=True):
+        solved = {x.design.number for x in p}
+        counts: dict[str, int] = {}
+        for d in r.designs:
+            if d.number not in solved:
+                counts[d.row.status] = counts.get(d.row.status, 0) + 1
+        if counts:
+            missing.append(f"{r.name}: " + ", ".join(f"{n} {s}" for s, n in sorted(counts.items())))
+    note = ("Designs without values (not drawn): " + "; ".join(missing) + ".") if missing else ""
+    return ("<h2 id=\"fronts\">Pareto fronts</h2>\n<p class=\"note\">Every solved design, shaded by the generation "
+            "that first asked for it; feasible accepted designs filled, others marked by status; an oscillating "
+            "value is its window mean with its amplitude as an error bar (Vessaz et al. 2013, Fig. 9–11). "
+            f"{e(note)} Every design: <a href=\"designs_0.csv\">designs_0.csv</a> (one file per run, in the order "
+            "given).</p>\n" + _img("pareto_fy_cmax.svg", "|F_Y| against C_max")
+            + _img("pareto_cl_cpmin.svg", "C_L against |C_p,min|"))
+
+
+def _summary(runs: list[Run], pts, out: Path) -> str:
+    head = "".join(f"<th>{e(label)}</th>" for label, _, _ in TABLE7_COLUMNS)
+    rows = []
+    for r, p in zip(runs, pts, strict=True):
+        t = table7(r, p)
+        cells = "".join("<td>-</td>" if t[q] is None else
+                        f"<td>{t[q][0]:.2f} <span class=\"note\">({e(t[q][1])}, #{t[q][2]})</span></td>"
+                        for _, q, _ in TABLE7_COLUMNS)
+        rows.append(f"<tr><td class=\"l\">{e(r.name)} <span class=\"note\">({e(r.mode)} {e(r.continuity)})</span>"
+                    f"</td>{cells}</tr>")
+        paper = paper_row(r)
+        if paper:
+            rows.append("<tr class=\"paper\"><td class=\"l\">paper, Table 7: " + e(f"{r.continuity} "
+                        f"{'Tool path' if r.mode == 'toolpath' else 'Design'}") + "</td>"
+                        + "".join(f"<td>{v:.2f}</td>" for v in paper) + "</tr>")
+    return ("<h2 id=\"summary\">Summary (Table 7)</h2>\n<p class=\"note\">Extremes over the feasible accepted "
+            "designs, with the convergence class and number of the design that reaches each. For the paper's "
+            "cases (same blade family, objectives max |F_Y|, min C_max) the paper's Table 7 row is shown below ours "
+            "(Vessaz et al. 2013; its channel and mesh differ: docs/campaigns.md). Table: "
+            "<a href=\"summary.csv\">summary.csv</a>.</p>\n"
+            f"<table><tr><th class=\"l\">run</th>{head}</tr>{''.join(rows)}</table>")
+
+
+def _gallery(runs: list[Run], pts, out: Path) -> str:
+    parts = ["<h2 id=\"gallery\">Geometry along the front</h2>\n<p class=\"note\">About six designs spread "
+             "along each run's |F_Y|–C_max front (Fig. 12–13), rebuilt from their stored parameters. Numbers are "
+             "design numbers (<code>millfoil export RUN --id N</code>).</p>"]
+    for k, (r, p) in enumerate(zip(runs, pts, strict=True)):
+        chosen = gallery(p)
+        parts.append(f"<h3>{e(r.name)}</h3>")
+        if not chosen:
+            parts.append("<p>No feasible design yet.</p>")
+            continue
+        gallery_figure(r, chosen, out / f"gallery_{k}.svg")
+        parts.append(_img(f"gallery_{k}.svg", f"blades of {r.name}"))
+    return "\n".join(parts)
+
+
+def _fields() -> str:
+    return ("<h2 id=\"fields\">Flow fields of selected designs</h2>\n<p>Not kept: the campaign store holds the "
+            "figures and monitors of each evaluation, not its fields (velocity, C_p and c_f along the sides, y+). "
+            "The report does not solve designs again to get them. Re-run a design with <code>millfoil evaluate"
+            "</code> to see its fields.</p>")
+
+
+def _health(runs: list[Run], out: Path) -> str:
+    parts = ["<h2 id=\"health\">Campaign health</h2>"]
+    for k, r in enumerate(runs):
+        h = health(r)
+        health_figure(h, out / f"health_{k}.svg")
+        total = sum(h.cache_hits)
+        parts.append(f"<h3>{e(r.name)}</h3><p class=\"note\">{len(r.designs)} designs stored, {total} cache hits; "
+                     f"per generation: <a href=\"generations_{k}.csv\">generations_{k}.csv</a>.</p>"
+                     + _img(f"health_{k}.svg", f"health of {r.name}"))
+    return "\n".join(parts)
+
+
+def _provenance(runs: list[Run]) -> str:
+    versions = []
+    for name in PACKAGES:
+        try:
+            versions.append(f"{name} {metadata.version(name)}")
+        except metadata.PackageNotFoundError:
+            continue
+    machine = f"{platform.node()} ({platform.platform()}, {os.cpu_count()} CPUs), Python {sys.version.split()[0]}"
+    parts = ["<h2 id=\"provenance\">Provenance</h2>",
+             f"<p>Report made with {e(', '.join(versions))} on {e(machine)}.</p>"]
+    for r in runs:
+        c = r.campaign
+        workers = sorted({d.row.worker for d in r.designs if d.row.worker})
+        parts.append(
+            f"<h3>{e(r.name)}</h3><table>"
+            + "".join(f"<tr><th class=\"l\">{e(k)}</th><td class=\"l\">{e(v)}</td></tr>" for k, v in (
+                ("run directory", r.directory.resolve()), ("state", c.state), ("message", c.message or "-"),
+                ("started", c.started), ("ended", c.ended or "-"), ("millfoil version of the run", c.version),
+                ("seed", c.seed), ("workers", ", ".join(workers[:8]) + (" …" if len(workers) > 8 else "") or "-")))
+            + f"</table><details><summary>resolved configuration</summary><pre>{e(c.config)}</pre></details>")
+    return "\n".join(parts)
+
+
+def _tables(runs: list[Run], pts, out: Path) -> None:
+    with open(out / "summary.csv", "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(["run", "mode", "continuity", "source", *[q for _, q, _ in TABLE7_COLUMNS],
+                    *[f"{q}_class" for _, q, _ in TABLE7_COLUMNS], *[f"{q}_design" for _, q, _ in TABLE7_COLUMNS]])
+        for r, p in zip(runs, pts, strict=True):
+            t = table7(r, p)
+            cols = [q for _, q, _ in TABLE7_COLUMNS]
+            w.writerow([r.name, r.mode, r.continuity, "millfoil",
+                        *[repr(t[q][0]) if t[q] else "" for q in cols], *[t[q][1] if t[q] else "" for q in cols],
+                        *[t[q][2] if t[q] else "" for q in cols]])
+            paper = paper_row(r)
+            if paper:
+                w.writerow([r.name, r.mode, r.continuity, "Vessaz et al. 2013 Table 7", *paper, *[""] * 8])
+    for k, (r, p) in enumerate(zip(runs, pts, strict=True)):
+        values = {x.design.number: x for x in p}
+        names = sorted({n for d in r.designs for n in d.row.parameters})
+        with open(out / f"designs_{k}.csv", "w", newline="") as fh:
+            w = csv.writer(fh)
+            w.writerow(["design", "key", "generation", "status", "class", "feasible", "fy_span_N", "c_l", "c_max",
+                        "cp_min_abs", "fy_amplitude_N", "c_max_amplitude", "wall_seconds", "reason", *names])
+            for d in r.designs:
+                v = values.get(d.number)
+                nums = [v.fy, v.cl, v.cmax, v.cpmin, v.dfy, v.dcmax] if v else [""] * 6
+                w.writerow([d.number, d.key, d.row.generation, d.row.status, d.row.convergence or "",
+                            d.row.feasible, *nums, d.row.wall_seconds or "", d.row.reason,
+                            *[d.row.parameters.get(n, "") for n in names]])
+        h = health(r)
+        with open(out / f"generations_{k}.csv", "w", newline="") as fh:
+            w = csv.writer(fh)
+            w.writerow(["generation", "hypervolume", "feasible_share", "cache_hits", *h.by_status, *h.by_class])
+            for i, g in enumerate(h.generations):
+                w.writerow([g, h.hypervolume[i] if h.hypervolume[i] is not None else "",
+                            h.feasible_share[i] if h.feasible_share[i] is not None else "", h.cache_hits[i],
+                            *[v[i] for v in h.by_status.values()], *[v[i] for v in h.by_class.values()]])
