@@ -144,6 +144,12 @@ _ABSENT: dict[Continuity, frozenset[str]] = {
 }
 
 
+def _some(names: list[str], shown: int = 5) -> str:
+    """The first ``shown`` names quoted (each cut to 40 characters), then how many more: a message stays short."""
+    quoted = [repr(n if len(n) <= 40 else n[:39] + "…") for n in map(str, names[:shown])]
+    return ", ".join(quoted) + (f" and {len(names) - shown} more" if len(names) > shown else "")
+
+
 def parse_mode(value: str) -> Mode:
     return _parse_choice(Mode, "mode", str(value).lower())
 
@@ -186,7 +192,7 @@ class BladeSpec:
         unknown = sorted(set(values) - set(known))
         if unknown:
             raise ParameterError(
-                f"unknown parameter{'s' if len(unknown) > 1 else ''} {', '.join(map(repr, unknown))} for a "
+                f"unknown parameter{'s' if len(unknown) > 1 else ''} {_some(unknown)} for a "
                 f"{continuity.value} {mode.value} blade; allowed: {', '.join(known)}"
             )
         resolved: dict[str, float] = {}

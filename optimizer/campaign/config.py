@@ -41,7 +41,7 @@ import yaml
 from pydantic import Field, ValidationError, field_validator, model_validator
 
 from optimizer.campaign.runner import ExecutionConfig
-from optimizer.config import Config, ConfigError, _Frozen, apply_overrides, load_config, set_values
+from optimizer.config import Config, ConfigError, _Frozen, apply_overrides, load_config, set_values, shorten
 from optimizer.yamlsource import Source
 
 #: Figures of :class:`optimizer.evaluate.Evaluation` that can be objectives or constraints, with units.
@@ -258,13 +258,14 @@ def explain(exc: ValidationError, source: Any, schema: type) -> str:
     lines = []
     for err in exc.errors():
         loc = tuple(p for p in err["loc"] if not (isinstance(p, str) and "[" in p))   # drop validator tags
+        loc = (*loc, *getattr((err.get("ctx") or {}).get("error"), "path", ()))    # where below the field
         where = ".".join(str(p) for p in loc)
         at = source.where(loc)
         if err["type"] == "extra_forbidden":
             allowed = _allowed_keys(schema, loc[:-1])
             lines.append(f"{at}: unknown key '{where}'; allowed: {', '.join(allowed)}")
         elif err["type"] in ("enum", "literal_error"):
-            lines.append(f"{at}: '{where}' = {err['input']!r} is not allowed; allowed: {err['ctx']['expected']}")
+            lines.append(f"{at}: '{where}' = {shorten(err['input'])} is not allowed; allowed: {err['ctx']['expected']}")
         elif err["type"] == "missing":
             lines.append(f"{at}: '{where}' is required")
         else:
@@ -273,7 +274,7 @@ def explain(exc: ValidationError, source: Any, schema: type) -> str:
             if named:
                 loc = (*loc, named.group(1))
                 where, at = ".".join(str(p) for p in loc), source.where(loc)
-            lines.append(f"{at}: '{where}': {msg} (got {err['input']!r})")
+            lines.append(f"{at}: '{where}': {msg} (got {shorten(err['input'])})")
     return "; ".join(lines)
 
 

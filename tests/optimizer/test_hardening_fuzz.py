@@ -1,0 +1,339 @@
+"""Fuzzer of the command line (issue 11, "what done looks like"): hostile configuration files, ``--set``
+overrides and options, each asserted to
+
+* end with a documented exit status (0 ok, 2 bad input, 3 infeasible, 4 a stage failed; docs/errors.md),
+* print no traceback, and for bad input one ``error:`` line naming the offending key, option or file,
+* stay within a time bound (:data:`SECONDS`) and a memory bound (:data:`MEGABYTES` of peak growth),
+* leave no partial output: nothing at all in the output folder unless the command succeeded (0 or 3),
+  and never a temporary file.
+
+Cases: a corpus of every class of the issue (files x commands, output locations, options), hypothesis over
+``--set`` keys and values and over whole YAML documents, and a few real subprocesses. Commands are run
+in-process through ``optimizer.cli.main``; ``mesh`` and ``evaluate`` only with inputs refused before any
+stage (the fuzzer never meshes or solves). The fast tier runs about 200 cases in about 10 s; ``slow``
+multiplies the hypothesis examples and adds the subprocesses.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import resource
+import subprocess
+import sys
+import tempfile
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import pytest
+import yaml
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from optimizer.cli import main
+
+ROOT = Path(__file__).parents[2]
+QUICKSTART = str(ROOT / "configs" / "quickstart.yaml")
+#: Exit statuses a command may end with (docs/errors.md).
+DOCUMENTED = {0, 2, 3, 4}
+#: Wall-clock bound of one in-process case, s (the slowest accepted input, a 10 m tool-path blade, ~2 s).
+SECONDS = 5.0
+#: Bound on how much one case may raise the process's peak memory, MB.
+MEGABYTES = 500
+FAST = settings(max_examples=30, deadline=None, derandomize=True, database=None,
+                suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much])
+SLOW = settings(FAST, max_examples=300)
+
+
+@dataclass
+class Outcome:
+    code: int
+    out: str
+    err: str
+    seconds: float
+
+
+def peak_mb() -> float:
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+
+
+def run_cli(argv: list[str], cwd: Path) -> Outcome:
+    """``millfoil ARGV`` in-process in ``cwd``: exit status (argparse's SystemExit included), stdout, stderr."""
+    out, err = io.StringIO(), io.StringIO()
+    start, before = time.perf_counter(), peak_mb()
+    with contextlib.chdir(cwd), contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        try:
+            code = main(argv)
+        except SystemExit as exc:
+            code = exc.code if isinstance(exc.code, int) else 2
+    outcome = Outcome(code, out.getvalue(), err.getvalue(), time.perf_counter() - start)
+    assert peak_mb() - before < MEGABYTES, (argv, peak_mb() - before)
+    return outcome
+
+
+def check(outcome: Outcome, cwd: Path, named: tuple[str, ...] = (), inputs: tuple[str, ...] = ()) -> None:
+    """The fuzzer's assertions for one case run in ``cwd`` (``inputs``: files there before the run)."""
+    context = f"exit {outcome.code}\nstderr: {outcome.err[-2000:]}"
+    assert outcome.code in DOCUMENTED, context
+    assert "Traceback" not in outcome.err and "Traceback" not in outcome.out, context
+    assert outcome.seconds < SECONDS, context
+    left = sorted(str(p.relative_to(cwd)) for p in cwd.rglob("*") if p.is_file() and p.name not in inputs)
+    assert not [p for p in left if ".partial" in p or "millfoil-probe" in p], left
+    if outcome.code in (2, 4):
+        assert left == [], (context, left)
+    if outcome.code == 2:
+        errors = [line for line in outcome.err.splitlines() if "error:" in line]
+        assert len(errors) == 1 and len(errors[0]) < 1500, context
+        if named:
+            assert any(n in errors[0] for n in named), (named, context)
+
+
+def case(argv: list[str], files: dict[str, str | bytes] | None = None, named: tuple[str, ...] = ()) -> Outcome:
+    """Run one case in a fresh folder holding ``files``; check it; return its outcome."""
+    with tempfile.TemporaryDirectory() as tmp:
+        cwd = Path(tmp)
+        for name, text in (files or {}).items():
+            (cwd / name).write_bytes(text if isinstance(text, bytes) else text.encode())
+        outcome = run_cli(argv, cwd)
+        check(outcome, cwd, named, tuple(files or ()))
+        return outcome
+
+
+# --------------------------------------------------------------------------------------------- corpus
+def _bomb(levels: int) -> str:
+    lines = ["a0: &a0 [x, x, x, x, x, x, x, x, x]"]
+    lines += [f"a{i}: &a{i} [{', '.join([f'*a{i - 1}'] * 9)}]" for i in range(1, levels)]
+    return "\n".join(lines) + f"\nblade:\n  parameters:\n    alpha: *a{levels - 1}\n"
+
+
+#: Hostile configuration files: name -> (content, a text the message must hold).
+FILES: dict[str, tuple[str | bytes, str]] = {
+    "bomb": (_bomb(9), "expands to more than"),
+    "bomb-deep": (_bomb(40), "c.yaml"),
+    "recursive": ("blade: &b {parameters: *b}\n", "recursive alias"),
+    "duplicate": ("blade:\n  parameters:\n    alpha: 20\n    alpha: 25\n", "duplicate key 'alpha'"),
+    "duplicate-section": ("flow: {speed: 1}\nflow: {speed: 2}\n", "duplicate key 'flow'"),
+    "boolean": ("blade:\n  parameters:\n    alpha: yes\n", "blade.parameters.alpha"),
+    "boolean-flow": ("flow:\n  density: false\n", "flow.density"),
+    "empty": ("", "is empty"),
+    "comment": ("# nothing\n", "is empty"),
+    "binary": (bytes(range(256)) * 4, "not a UTF-8 text file"),
+    "latin1": ("blade:\n  mode: désign\n".encode("latin-1"), "not a UTF-8 text file"),
+    "nul": (b"blade: {}\x00", "unacceptable character"),
+    "deep": ("a: " + "[" * 100 + "]" * 100 + "\n", "nested more than"),
+    "digits": ("blade:\n  parameters:\n    alpha: " + "1" * 5000 + "\n", "a number of 5000 characters"),
+    "tag": ("blade: !!python/object/apply:os.system [ls]\n", "not valid YAML"),
+    "documents": ("blade: {}\n---\nflow: {}\n", "not valid YAML"),
+    "list": ("- blade\n- mesh\n", "must be a YAML mapping"),
+    "scalar": ("just text\n", "must be a YAML mapping"),
+    "unknown-section": ("meshing: {level: fine}\n", "unknown key 'meshing'"),
+    "unclosed": ("blade: {mode: design\n", "not valid YAML"),
+    "tab": ("blade:\n\tmode: design\n", "not valid YAML"),
+    "huge-L": ("blade:\n  parameters: {L: 1.0e+6}\n", "'L'"),
+    "inf": ("flow:\n  speed: .inf\n", "flow.speed"),
+    "nan-param": ("blade:\n  parameters: {alpha: .nan}\n", "blade.parameters.alpha"),
+    "huge-int": ("solver:\n  max_iter: 1" + "0" * 400 + "\n", "a number of 401 characters"),
+    "float-as-int": ("solver:\n  max_iter: 1.5\n", "solver.max_iter"),
+    "long-string": ("blade:\n  mode: " + "x" * 100_000 + "\n", "blade.mode"),
+    "many-keys": ("blade:\n  parameters:\n" + "".join(f"    k{i}: {i}\n" for i in range(300)), "unknown parameter"),
+}
+COMMANDS = (["profile"], ["space"], ["check"], ["mesh", "--level", "coarse"], ["evaluate", "--level", "coarse"])
+
+
+@pytest.mark.parametrize("name", list(FILES))
+@pytest.mark.parametrize("command", COMMANDS, ids=lambda c: c[0])
+def test_hostile_files(command, name):
+    text, message = FILES[name]
+    if command == ["check"] and name == "unknown-section":
+        message = "c.yaml"                          # a campaign has its own sections and space
+    outcome = case([*command, "c.yaml"], {"c.yaml": text}, named=(message,))
+    # space and check read the optimisation space, not one blade: its parameter values are not built
+    assert outcome.code == (0 if name in ("huge-L", "many-keys") and command[0] in ("space", "check") else 2)
+
+
+#: Output locations refused before any stage: (argv, the option the message names).
+OUTPUTS = [
+    (["profile", "--out", "missing/p.csv"], "--out"),
+    (["profile", "--out", "p.txt"], "--out"),
+    (["profile", "--out", "."], "--out"),
+    (["profile", "--plot", "missing/p.png"], "--plot"),
+    (["profile", "--plot", "p"], "--plot"),
+    (["profile", "--plot", "/proc/p.png"], "--plot"),
+    (["profile", "--out", "/dev/null"], "--out"),
+    (["profile", "--out", "p.csv", "--plot", "q/p.png"], "--plot"),
+    (["mesh", "--out", "m.xyz"], "--out"),
+    (["mesh", "--out", "none/m.msh"], "--out"),
+    (["mesh", "--plot", "."], "--plot"),
+    (["mesh", "--out", "/proc/m.msh"], "--out"),
+    (["evaluate", "--save", "/proc/run"], "--save"),
+    (["evaluate", "--save", "c.yaml"], "--save"),
+    (["evaluate", "--save", "c.yaml/run"], "--save"),
+]
+
+
+@pytest.mark.parametrize("argv,option", OUTPUTS, ids=lambda v: " ".join(v) if isinstance(v, list) else v)
+def test_output_locations(argv, option):
+    assert case(argv, {"c.yaml": "blade: {}\n"}, named=(option,)).code == 2
+
+
+#: Options: (argv, what the message names; an empty tuple for argparse's own messages).
+OPTIONS = [
+    (["profile", "--tolerance", "inf"], ("--tolerance",)),
+    (["profile", "--tolerance", "nan"], ("--tolerance",)),
+    (["profile", "--tolerance=-1"], ("--tolerance",)),
+    (["profile", "--tolerance", "1e-15"], ("--tolerance",)),
+    (["profile", "--tolerance", "1"], ("--tolerance",)),
+    (["profile", "--tolerance", "abc"], ("--tolerance",)),
+    (["profile", "--tolerance"], ("--tolerance",)),
+    (["profile", "--colour", "red"], ("--colour",)),
+    (["profile", "a.yaml", "b.yaml"], ("b.yaml",)),
+    (["profile", "missing.yaml"], ("missing.yaml",)),
+    (["profile", "--set"], ("--set",)),
+    (["profile", "--set", "=5"], ("--set",)),
+    (["profile", "--set", "alpha"], ("--set",)),
+    (["profile", "--set", ".=1"], ("--set",)),
+    (["profile", "--set", "alpha=1", "--set", "alpha=2"], ("alpha",)),
+    (["mesh", "--level", "ultra"], ("--level",)),
+    (["evaluate", "--every=-1"], ("--every",)),
+    (["evaluate", "--every", "1.5"], ("--every",)),
+    (["evaluate", "--set", "solver.model=rans"], ("solver.model",)),
+    (["validate", "nope"], ("nope",)),
+    (["validate", "cavity", "--alpha", "5"], ("--alpha",)),
+    (["validate", "cavity", "--level", "huge"], ("--level",)),
+    (["status", "no-such-run"], ("no-such-run",)),
+    (["resume", "no-such-run"], ("no-such-run",)),
+    (["resume", "no-such-run", "--set", "alpha=1"], ("alpha",)),
+    (["check", "--set", "algorithm.population=true"], ("algorithm.population",)),
+    (["check", "--set", "algorithm.population=1e400"], ("algorithm.population",)),
+    (["check", "--set", "objectives=[1"], ("--set objectives",)),
+    (["nonsense"], ("nonsense",)),
+]
+
+
+@pytest.mark.parametrize("argv,named", OPTIONS, ids=lambda v: " ".join(v) if isinstance(v, list) else None)
+def test_options(argv, named):
+    assert case(argv, named=named).code == 2
+
+
+def test_a_good_run_leaves_exactly_its_files():
+    with tempfile.TemporaryDirectory() as tmp:
+        outcome = run_cli(["profile", "--out", "p.csv"], Path(tmp))
+        check(outcome, Path(tmp))
+        assert outcome.code == 0 and [p.name for p in Path(tmp).iterdir()] == ["p.csv"]
+
+
+# ----------------------------------------------------------------------------------------- hypothesis
+#: Override keys: blade parameters, every section's keys, campaign keys, and keys that do not exist.
+KEYS = ["alpha", "beta1", "beta1bar", "L", "d_s1", "d_s2", "d_s3", "d_s4", "d_p3", "d_p4", "u_s2", "k2", "R",
+        "blade.mode", "blade.continuity", "blade.parameters", "blade.bounds.alpha", "blade.fixed.L", "blade",
+        "mesh.level", "mesh.upstream", "mesh.wall_nodes", "mesh.growth", "mesh.y_plus", "mesh",
+        "flow.speed", "flow.density", "flow.span", "flow.intensity", "solver.model", "solver.max_iter",
+        "solver.tol", "solver.alpha_u", "solver.limiter", "solver", "colour", "blade.colour", "flow.speed.x",
+        "a.b.c.d.e", "blade.parameters.alpha.x"]
+CAMPAIGN_KEYS = ["algorithm.population", "algorithm.generations", "algorithm.seed", "objectives",
+                 "constraints", "execution.backend", "execution.workers", "output.directory", "convergence"]
+SCALARS = st.one_of(
+    st.floats(allow_nan=True, allow_infinity=True).map(repr),
+    st.floats(min_value=-100, max_value=100).map(lambda v: f"{v:.6g}"),
+    st.integers(min_value=-10**120, max_value=10**120).map(str),
+    st.sampled_from(["true", "no", "on", "null", "~", "", ".inf", "-.nan", "0x1F", "0o17", "1_000", "1e400",
+                     "2001-01-01", "G1", "toolpath", "design", "coarse", "laminar", "'25'", '"x"', "[1, 2]",
+                     "{a: 1}", "[0.004, 0.006]", "&a [*a]", "!!binary aGk=", "!!python/none ''", "*a", "&a 1",
+                     "[1", "{", "'", "|", ">", "- x", "? x", "a: b: c", "%TAG", "@x", "`x`", "\t1", "1\x00",
+                     "\u202e", "\ufeff1", "9" * 500, "[" * 60 + "]" * 60]),
+    st.text(max_size=40),
+)
+
+
+@FAST
+@given(key=st.sampled_from(KEYS), value=SCALARS, command=st.sampled_from(["profile", "space"]))
+def test_overrides(key, value, command):
+    outcome = case([command, "--set", f"{key}={value}"], named=tuple(key.split(".")) + ("--set",))
+    assert outcome.code in DOCUMENTED
+
+
+@FAST
+@given(key=st.sampled_from(CAMPAIGN_KEYS + KEYS[:6]), value=SCALARS)
+def test_campaign_overrides(key, value):
+    case(["check", QUICKSTART, "--set", f"{key}={value}"], named=tuple(key.split(".")) + ("--set",))
+
+
+SECTION_KEYS = ["blade", "mesh", "flow", "solver", "parameters", "mode", "continuity", "bounds", "fixed",
+                "alpha", "L", "level", "speed", "model", "max_iter", "objectives", "algorithm"]
+VALUES = st.recursive(
+    st.one_of(st.none(), st.booleans(), st.integers(min_value=-10**30, max_value=10**30),
+              st.floats(allow_nan=True), st.text(max_size=20), st.sampled_from(["design", "G1", "coarse"])),
+    lambda inner: st.lists(inner, max_size=4) | st.dictionaries(
+        st.sampled_from(SECTION_KEYS) | st.text(max_size=8), inner, max_size=4),
+    max_leaves=20,
+)
+
+
+def _mutate(text: str, how: str, at: int) -> str | bytes:
+    """A YAML text made hostile in one way (``at`` picks where)."""
+    lines = text.splitlines(keepends=True) or ["\n"]
+    k = at % len(lines)
+    return {
+        "none": text,
+        "duplicate-line": "".join(lines[:k + 1] + [lines[k]] + lines[k + 1:]),
+        "truncate": text[: at % (len(text) + 1)],
+        "latin1": text.encode() + "é".encode("latin-1"),
+        "nul": text + "\x00",
+        "tag": text + "\nx: !!python/object:os.system {}\n",
+        "anchor-bomb": _bomb(12) + text,
+        "tabs": text.replace("  ", "\t"),
+    }[how]
+
+
+@FAST
+@given(doc=st.dictionaries(st.sampled_from(SECTION_KEYS), VALUES, max_size=4),
+       how=st.sampled_from(["none", "duplicate-line", "truncate", "latin1", "nul", "tag", "anchor-bomb", "tabs"]),
+       at=st.integers(min_value=0, max_value=10**6), command=st.sampled_from(["profile", "space", "check"]))
+def test_files(doc, how, at, command):
+    text = _mutate(yaml.safe_dump(doc, allow_unicode=True), how, at)
+    case([command, "c.yaml"], {"c.yaml": text}, named=("c.yaml", "--set"))
+
+
+@pytest.mark.slow
+@SLOW
+@given(key=st.sampled_from(KEYS), value=SCALARS, command=st.sampled_from(["profile", "space", "mesh"]))
+def test_overrides_long(key, value, command):
+    argv = [command, "--set", f"{key}={value}"] + (["--out", "m.xyz"] if command == "mesh" else [])
+    case(argv, named=tuple(key.split(".")) + ("--set", "--out"))
+
+
+@pytest.mark.slow
+@SLOW
+@given(doc=st.dictionaries(st.sampled_from(SECTION_KEYS), VALUES, max_size=5),
+       how=st.sampled_from(["none", "duplicate-line", "truncate", "latin1", "nul", "tag", "anchor-bomb", "tabs"]),
+       at=st.integers(min_value=0, max_value=10**6), command=st.sampled_from(["profile", "space", "check"]))
+def test_files_long(doc, how, at, command):
+    text = _mutate(yaml.safe_dump(doc, allow_unicode=True), how, at)
+    case([command, "c.yaml"], {"c.yaml": text}, named=("c.yaml", "--set"))
+
+
+# ------------------------------------------------------------------------------------------ subprocess
+SUBPROCESS = [
+    (["profile", "c.yaml"], {"c.yaml": _bomb(9)}, "expands to more than"),
+    (["profile", "c.yaml"], {"c.yaml": bytes(range(256))}, "not a UTF-8 text file"),
+    (["profile", "--set", "alpha=[1"], {}, "--set alpha"),
+    (["profile", "--set", "L=1e300"], {}, "'L'"),
+    (["profile", "--tolerance", "inf"], {}, "--tolerance"),
+    (["evaluate", "--save", "/proc/x"], {}, "--save"),
+]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("argv,files,message", SUBPROCESS, ids=lambda v: " ".join(v) if isinstance(v, list) else None)
+def test_real_processes(argv, files, message, tmp_path):
+    for name, text in files.items():
+        (tmp_path / name).write_bytes(text if isinstance(text, bytes) else text.encode())
+    start = time.perf_counter()
+    proc = subprocess.run([sys.executable, "-m", "optimizer.cli", *argv], cwd=tmp_path, capture_output=True,
+                          text=True, timeout=120)
+    outcome = Outcome(proc.returncode, proc.stdout, proc.stderr, time.perf_counter() - start)
+    assert outcome.code == 2 and "Traceback" not in outcome.err and message in outcome.err, outcome.err
+    assert outcome.err.count("\n") == 1
+    assert resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024 < 2048
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(files)
