@@ -53,6 +53,8 @@ def upwind_stencil(mesh: FVMesh, flux: np.ndarray, gamma) -> Stencil:
 def deferred_correction(mesh: FVMesh, flux: np.ndarray, grad_ho: np.ndarray) -> np.ndarray:
     """``F_f (phi_f^HO - phi_f^UD) = F_f grad_HO(phi)_U·(x_f - x_U)`` per internal face ``(ni, ...)``."""
     ni = mesh.n_internal
+    if not grad_ho.any():           # upwind (k and omega by default): nothing to correct, skip the gathers
+        return np.zeros((ni,) + grad_ho.shape[1:-1])
     o, n = mesh.owner[:ni], mesh.neighbour[:ni]
     F = flux[:ni]
     extra = (1,) * (grad_ho.ndim - 2)                   # component axes of a vector field
