@@ -1,0 +1,166 @@
+"""``millfoil report`` on made-up stores (no CFD): the page, its figures and tables, the Table 7 summary
+against values computed here from the store rows, escaping, a running campaign, and a real headless
+browser rendering the page. Drawing the figures takes seconds (matplotlib): the tests that write a page are
+marked slow; the fast tier checks what the page is computed from."""
+
+from __future__ import annotations
+
+import csv
+import re
+import shutil
+import subprocess
+from pathlib import Path
+
+import pytest
+
+from optimizer.campaign.store import STORE_NAME, Store
+from optimizer.cli import main
+from optimizer.report.run import load_run
+from optimizer.report.synthetic import synthetic_run
+
+EVIL = '<img src=x onerror="alert(1)">&'
+
+
+@pytest.fixture(scope="module")
+def runs(tmp_path_factory):
+    base = tmp_path_factory.mktemp("runs")
+    a = synthetic_run(base / "toolpath_g1", population=6, generations=3, seed=1)
+    b = synthetic_run(base / EVIL, population=5, generations=2, seed=2, finished=False)
+    return a, b
+
+
+@pytest.fixture(scope="module")
+def report(runs):
+    out = runs[0] / "report"
+    assert main(["report", str(runs[0]), str(runs[1])]) == 0
+    return out
+
+
+@pytest.mark.slow
+def test_page_and_every_file_it_names(report):
+    page = (report / "index.html").read_text()
+    sources = re.findall(r'(?:src|href)="([^"#]+)"', page)
+    assert sources, "the page names its figures and tables"
+    for src in sources:
+        assert not re.match(r"[a-z]+:", src), f"external reference {src}"
+        assert (report / src).is_file(), src
+    assert "<script" not in page.lower() and "@import" not in page and "url(" not in page
+    for svg in report.glob("*.svg"):
+        assert "http://www.w3.org" in svg.read_text()[:2000]          # namespace only, nothing fetched
+        assert not re.search(r'(?:href|src)="https?:', svg.read_text())
+
+
+@pytest.mark.slow
+def test_user_strings_are_escaped(report):
+    page = (report / "index.html").read_text()
+    assert EVIL not in page and "<img src=x" not in page
+    assert "&lt;img src=x onerror=&quot;alert(1)&quot;&gt;&amp;" in page
+
+
+def expected_extremes(run_dir: Path) -> dict[str, float]:
+    """Table 7's extremes recomputed here from the raw rows: feasible accepted designs only."""
+    with Store(run_dir / STORE_NAME, readonly=True) as store:
+        rows = [r for r in store.evaluations() if r.feasible]
+    return {"fy": max(abs(r.figures["fy_span"]) for r in rows), "cl": max(r.figures["c_l"] for r in rows),
+            "cmax": min(r.figures["c_max"] for r in rows), "cpmin": min(abs(r.figures["cp_min"]) for r in rows)}
+
+
+def test_table7_extremes_match_the_store(runs):
+    from optimizer.report.analysis import paper_row, points, table7
+
+    run = load_run(runs[0])
+    summary = table7(run, points(run))
+    for q, v in expected_extremes(runs[0]).items():
+        assert summary[q][0] == pytest.approx(v, rel=1e-12)
+        assert run.by_key[run.design(summary[q][2]).key].row.feasible
+    assert paper_row(run) == (88.16, 4.41, 12.25, 0.50)          # toolpath G1, objectives max |F_Y|, min C_max
+
+
+@pytest.mark.slow
+def test_table7_csv(runs, report):
+    expected = expected_extremes(runs[0])
+    table = list(csv.DictReader(open(report / "summary.csv")))
+    ours = next(t for t in table if t["run"] == "toolpath_g1" and t["source"] == "millfoil")
+    for q, v in expected.items():
+        assert float(ours[q]) == pytest.approx(v, rel=1e-12)
+    paper = next(t for t in table if t["run"] == "toolpath_g1" and t["source"].startswith("Vessaz"))
+    assert [float(paper[q]) for q in ("fy", "cl", "cmax", "cpmin")] == [88.16, 4.41, 12.25, 0.50]
+
+
+@pytest.mark.slow
+def test_sections_of_a_running_campaign(runs, report):
+    page = (report / "index.html").read_text()
+    assert "running" in page and "Not kept" in page
+    run = load_run(runs[1])
+    assert run.campaign.state == "running"
+    designs = list(csv.DictReader(open(report / "designs_1.csv")))
+    assert len(designs) == len(run.designs) == 10
+    for k in (0, 1):
+        assert (report / f"gallery_{k}.svg").stat().st_size > 1000
+        gens = list(csv.DictReader(open(report / f"generations_{k}.csv")))
+        assert [int(g["generation"]) for g in gens] == list(range(len(gens)))
+
+
+def test_gallery_designs_lie_on_the_front(runs):
+    from optimizer.report.analysis import front, gallery, points
+
+    pts = points(load_run(runs[0]))
+    chosen = gallery(pts)
+    assert 1 <= len(chosen) <= 6
+    on_front = {p.design.number for p in front(pts)}
+    assert {p.design.number for p in chosen} <= on_front
+
+
+def test_report_input_errors(tmp_path, capsys):
+    assert main(["report", str(tmp_path)]) == 2
+    assert "no campaign store" in capsys.readouterr().err
+
+
+# ------------------------------------------------------------------------------------------- browser
+def _chromium() -> str | None:
+    for name in ("chromium", "chromium-browser", "google-chrome", "google-chrome-stable"):
+        if shutil.which(name):
+            return shutil.which(name)
+    return None
+
+
+#: Injected into a copy of the page (the shipped page has no script): on load, report in the title how many
+#: images decoded and any error the page raised.
+_PROBE = """<script>
+var errors = [];
+window.addEventListener('error', function (e) { errors.push(String(e.message || e.target && e.target.src)); }, true);
+window.addEventListener('load', function () {
+  var imgs = Array.prototype.slice.call(document.images);
+  var ok = imgs.filter(function (i) { return i.complete && i.naturalWidth > 0; }).length;
+  document.title = 'PROBE images ' + ok + '/' + imgs.length + ' errors ' + errors.length + ' ' + errors.join('|');
+});
+</script>"""
+
+
+@pytest.mark.slow
+def test_page_renders_in_headless_chromium(report, tmp_path):
+    """Chromium (Debian package ``chromium``) opens the page from disk with no network: every figure
+    decodes, no error event fires, no console error is logged; a screenshot is kept beside the report."""
+    browser = _chromium()
+    if browser is None:
+        pytest.skip("no Chromium found (install it with: apt-get install -y chromium)")
+    page = (report / "index.html").read_text()
+    probe = report / "probe.html"
+    probe.write_text(page.replace("<head>", "<head>" + _PROBE, 1))
+    flags = [browser, "--headless", "--no-sandbox", "--disable-gpu", "--no-first-run", "--disable-extensions",
+             f"--user-data-dir={tmp_path / 'profile'}", "--enable-logging=stderr", "--v=0",
+             "--virtual-time-budget=10000"]
+    dom = subprocess.run([*flags, "--dump-dom", probe.as_uri()], capture_output=True, text=True, timeout=120)
+    probe.unlink()
+    title = re.search(r"<title>(PROBE[^<]*)</title>", dom.stdout)
+    assert title, dom.stderr[-2000:]
+    m = re.match(r"PROBE images (\d+)/(\d+) errors (\d+)", title.group(1))
+    assert m.group(1) == m.group(2) and int(m.group(2)) >= 5, title.group(1)
+    assert m.group(3) == "0", title.group(1)
+    console = [x for x in dom.stderr.splitlines() if "CONSOLE" in x]
+    assert not console, console
+    shot = report / "screenshot.png"
+    subprocess.run([*flags, f"--screenshot={shot}", "--window-size=1200,1800", (report / "index.html").as_uri()],
+                   capture_output=True, text=True, timeout=120, check=True)
+    assert shot.stat().st_size > 10_000
+    Path(report / "screenshot.txt").write_text(f"rendered by {browser}\n")
