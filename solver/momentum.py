@@ -39,12 +39,14 @@ class MomentumSystem:
 
     a_p: ``(nc,)`` mean relaxed diagonal of the two systems, kg/s per unit depth.
     h1: ``(nc,)`` ``-sum`` of the off-diagonal coefficients of each row (for SIMPLEC), kg/s.
+    alpha: the under-relaxation factor that divides ``a_p``.
     """
 
     u: LinearSystem
     v: LinearSystem
     a_p: np.ndarray
     h1: np.ndarray
+    alpha: float = 1.0
 
 
 def momentum_system(mesh: FVMesh, pattern: FVPattern, bnd: BoundaryData, u: np.ndarray, u_b: np.ndarray,
@@ -90,7 +92,7 @@ def momentum_system(mesh: FVMesh, pattern: FVPattern, bnd: BoundaryData, u: np.n
         b = src[:, c] + (1.0 - alpha) * d * u[:, c]
         sys.append((LinearSystem(pattern.matrix(d, upper, lower), b, u[:, c].copy()), d))
     a_p = 0.5 * (sys[0][1] + sys[1][1])
-    return MomentumSystem(sys[0][0], sys[1][0], a_p, h1)
+    return MomentumSystem(sys[0][0], sys[1][0], a_p, h1, alpha)
 
 
 def _boundary(mesh, bnd, u, u_b, Fb, grad_u, mu):
