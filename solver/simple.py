@@ -34,6 +34,7 @@ from .monitors import (
     check_finite,
     classify_at_cap,
     divergence,
+    established,
     new_monitors,
     settled,
     stationary,
@@ -178,6 +179,7 @@ def _iterate(problem: Problem, settings: SimpleSettings, state: FlowState | None
     monitors = new_monitors(settings.monitor_groups)
     solver_state: dict = {}
     status, message = "not_converged", f"reached max_iter = {settings.max_iter}"
+    classification = None
     it = 0
     for it in range(1, settings.max_iter + 1):
         last_good = s.copy()
@@ -205,12 +207,15 @@ def _iterate(problem: Problem, settings: SimpleSettings, state: FlowState | None
             break
         if settled(res, monitors, it, settings):
             status, message = "converged", (
-                f"monitors stationary within {settings.classify_tol:g} over {settings.classify_window} iterations"
+                f"monitors stationary within {settings.stop_tol:g} over {settings.stop_window} iterations"
                 f" and scaled residuals < {settings.stall_tol:g} (largest {max(res.values()):.2e})")
             break
+        early = established(monitors, it, settings)
+        if early is not None:
+            status, message, classification = early
+            break
     monitor_arrays = {k: np.array(v) for k, v in monitors.items()}
-    classification = None
-    if status == "not_converged":
+    if status == "not_converged" and classification is None:
         status, message, classification = classify_at_cap(monitor_arrays, hist, settings)
     return FlowResults(problem.mesh, problem.bnd, s.u, s.p, s.flux, {k: np.array(v) for k, v in hist.items()},
                        status, message, it, problem.fluid.rho, problem.fluid.mu,

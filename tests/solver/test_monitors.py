@@ -1,0 +1,48 @@
+"""Stopping tests on the monitor histories: the short-window stop (:func:`solver.monitors.settled`) and the
+early recognition of an established oscillation or drift (:func:`solver.monitors.established`)."""
+
+import numpy as np
+
+from solver import SimpleSettings
+from solver.convergence import classify
+from solver.monitors import established, settled
+
+CFG = SimpleSettings()          # classify_window 200, classify_tol 1e-3, stop_window 50, stop_tol 3e-4
+RES = {"u": 1e-6, "v": 1e-6, "continuity": 1e-6}
+
+
+def _hist(values):
+    return {"c_max": list(values), "fy:blade": list(-2.0 * np.asarray(values))}
+
+
+def test_settled_needs_the_short_window_stationary_and_the_residuals_below_stall_tol():
+    it = np.arange(300)
+    decaying = 10.0 + np.exp(-it / 20.0)             # settles to 1e-6 relative long before 300
+    assert settled(RES, _hist(decaying), 300, CFG)
+    assert not settled({**RES, "k": 2e-5}, _hist(decaying), 300, CFG)           # a residual above stall_tol
+    assert not settled(RES, _hist(decaying), 301, CFG)                          # checked every 10 iterations
+    drifting = 10.0 + 1e-4 * it                      # 5e-4 relative over 50 iterations > stop_tol
+    assert not settled(RES, _hist(drifting), 300, CFG)
+
+
+def test_established_oscillation_stops_with_the_classification_of_the_last_window():
+    it = np.arange(600)
+    x = 25.0 + 0.2 * np.sin(2 * np.pi * it / 37.0)
+    status, message, cls = established(_hist(x), 600, CFG)
+    assert status == "oscillating" and "established" in message
+    ref = classify({k: np.asarray(v) for k, v in _hist(x).items()}, window=200, tol=1e-3)
+    assert cls.mean == ref.mean and cls.amplitude == ref.amplitude and cls.period == ref.period
+    assert established(_hist(x[:599]), 599, CFG) is None                        # checked every 50 iterations
+    assert established(_hist(x[:550]), 550, CFG) is None                        # before 3 windows
+
+
+def test_a_decaying_oscillation_or_a_decaying_drift_goes_on_a_steady_drift_stops():
+    it = np.arange(600)
+    decaying = 25.0 + 0.3 * np.exp(-it / 150.0) * np.sin(2 * np.pi * it / 37.0)     # amplitude halves
+    assert established(_hist(decaying), 600, CFG) is None
+    creeping = 25.0 - 0.5 * np.exp(-it / 100.0)                                       # converging slowly
+    assert established(_hist(creeping), 600, CFG) is None
+    drift = 25.0 + 2e-3 * it
+    status, _, cls = established(_hist(drift), 600, CFG)
+    assert status == "not_converged" and cls.status == "not_converged"
+    assert established(_hist(drift), 600, SimpleSettings(early_classify=False)) is None
