@@ -18,7 +18,7 @@ import argparse
 import sys
 from collections.abc import Sequence
 
-from optimizer.cli import blade, campaign, evaluate, mesh, validate
+from optimizer.cli import blade, campaign, evaluate, export, mesh, report, validate
 from optimizer.cli.common import EXIT_FAILED, EXIT_INFEASIBLE, EXIT_INPUT, EXIT_OK, HelpFormatter
 from optimizer.config import ConfigError
 from optimizer.saving import WriteFailure
@@ -26,7 +26,7 @@ from optimizer.saving import WriteFailure
 __all__ = ["COMMANDS", "EXIT_FAILED", "EXIT_INFEASIBLE", "EXIT_INPUT", "EXIT_OK", "main"]
 
 #: Command modules, in the order of ``millfoil --help``.
-COMMANDS = (blade, mesh, evaluate, validate, campaign)
+COMMANDS = (blade, mesh, evaluate, validate, campaign, report, export)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
