@@ -108,15 +108,16 @@ def test_a_stuck_task_times_out_and_its_worker_is_restarted(runner):
     t0 = time.monotonic()
     results = list(runner.run(sleep_for, [Task("stuck", {"s": 60.0}, 0), Task("quick", {"s": 0.1}, 0)]))
     assert [r.key for r in results] == ["quick", "stuck"]
-    assert results[1].status == "timeout" and results[1].seconds == pytest.approx(2.0, abs=1.0)
+    stuck = results[1]
+    assert stuck.status == "timeout" and 2.0 <= stuck.seconds < 4.0
     assert time.monotonic() - t0 < 10
-    # the next batch runs on both workers: the stuck one was restarted after timeout_grace
-    deadline = time.monotonic() + 30
-    while time.monotonic() < deadline:
-        results = list(runner.run(sleep_for, [Task(f"after{i}", {"s": 0.5}, 0) for i in range(2)]))
-        if all(r.status == "done" for r in results) and len({r.record["pid"] for r in results}) == 2:
-            break
-    assert all(r.status == "done" for r in results) and len({r.record["pid"] for r in results}) == 2
+    # the next batch runs while the grace period ends: the stuck worker is killed and replaced, and a task
+    # that was sent to it meanwhile is resubmitted without costing a retry (retries=1 here)
+    time.sleep(1.5)
+    results = list(runner.run(sleep_for, [Task(f"after{i}", {"s": 0.5}, 0) for i in range(3)]))
+    assert all(r.status == "done" and r.attempts == 1 for r in results)
+    _wait_for_workers(runner, 2, timeout=120)
+    assert stuck.worker not in runner.client.nthreads(), "the stuck worker was replaced by a fresh process"
 
 
 def dispatch(payload: dict) -> dict:
