@@ -379,16 +379,21 @@ def _machined_leftovers(runs: list[_Run], leftover: list[int], pieces: list[Bezi
     """
     if not leftover:
         return []
-    fine = _cutter_positions(pieces, radius, tolerance / 4 / 256)
-    tree = cKDTree(fine)
+    # Inside or outside the stock needs the path only to well within R: the tips are R from it.
+    stock = np.vstack([piece.points(np.linspace(0.0, 1.0, DENSE))[:-1] for piece in pieces])
+    inside = [_inside(stock, runs[k].points[1:-1]) for k in leftover]
+    if not any(len(tips) for tips in inside):
+        return []
+    fine = cKDTree(_cutter_positions(pieces, radius, tolerance / 4 / 256))
+    return [k for k, tips in zip(leftover, inside, strict=True) if _uncut(fine, tips, radius, tolerance).any()]
 
-    def is_surface(run: _Run) -> bool:
-        tips = run.points[1:-1]
-        tips = tips[_uncut(tree, tips, radius, tolerance)]
-        chunks = range(0, len(tips), 16)  # 16 tips against every path sample at a time: bounded memory
-        return any((_winding_number(fine, tips[i : i + 16]) > 0).any() for i in chunks)
 
-    return [k for k in leftover if is_surface(runs[k])]
+def _inside(loop: Array, points: Array, chunk: int = 64) -> Array:
+    """The ``points`` around which the closed polyline ``loop`` winds counter-clockwise (chunked: bounded
+    memory for long runs and finely sampled paths)."""
+    winding = np.concatenate([_winding_number(loop, points[i : i + chunk]) for i in range(0, len(points), chunk)]
+                             or [np.empty(0, int)])
+    return points[winding > 0]
 
 
 def _winding_number(loop: Array, points: Array) -> np.ndarray:
