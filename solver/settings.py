@@ -17,12 +17,15 @@ class SimpleSettings:
 
     The defaults are those of the blade evaluations (Re ~ 1e6, k-omega SST, first cell at y+ ~ 1):
 
-    algorithm: ``"simple"`` (default) or ``"simplec"`` (:data:`solver.simple.ALGORITHMS`).
+    algorithm: ``"simplec"`` (default) or ``"simple"`` (:data:`solver.simple.ALGORITHMS`).
     alpha_u, alpha_p: momentum and pressure under-relaxation; ``alpha_p`` None means 1 (no pressure
-        relaxation, the SIMPLEC choice; :attr:`pressure_relaxation`). Defaults SIMPLE, 0.7, 0.3: SIMPLEC
-        (alpha_p = 1) diverged within 3 iterations on the coarse blade mesh at Re = 1e6 (first cell for
-        y+ = 1, aspect ratio ~3 500), laminar and SST alike; at low Re (laminar tests, the cavity and
-        cylinder cases) SIMPLEC with alpha_u = 0.8-0.98 and alpha_p = 1 is faster.
+        relaxation, the SIMPLEC choice; :attr:`pressure_relaxation`). Defaults SIMPLEC, 0.9, None (1), as
+        OpenFOAM's simpleFoam runs the same meshes; with the bounded SIMPLEC coefficient
+        (:func:`solver.simple.simplec_coefficient`) the benchmark blade at medium (16 641 cells) has its lift
+        within 0.5 % / 0.1 % of the final value after 268 / 360 iterations (SIMPLE 0.7/0.3, the default
+        before issue 13: 793 / > 1 000, stop at 1 460), C_L -1.7418 vs -1.7415, C_max 25.685 vs 25.68 m/s.
+        Unbounded, SIMPLEC diverged within 3 iterations there. At low Re (laminar tests, the cavity and
+        cylinder cases) SIMPLEC with alpha_u = 0.8-0.98 and alpha_p = 1 is faster still.
     convection: ``"linear_upwind"`` (second order, deferred correction) or ``"upwind"``
         (:data:`solver.assembly.CONVECTION_SCHEMES`).
     limiter, limiter_k: gradient limiter for convection (:data:`solver.gradient.LIMITERS`).
@@ -53,9 +56,9 @@ class SimpleSettings:
     momentum_solver, pressure_solver: linear solvers of the momentum and pressure-correction systems.
     """
 
-    algorithm: str = "simple"
-    alpha_u: float = 0.7
-    alpha_p: float | None = 0.3
+    algorithm: str = "simplec"
+    alpha_u: float = 0.9
+    alpha_p: float | None = None
     convection: str = "linear_upwind"
     limiter: str = "venkatakrishnan"
     limiter_k: float = 5.0
