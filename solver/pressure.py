@@ -19,7 +19,7 @@ import numpy as np
 
 from .boundary import FIXED, ZERO_GRADIENT, BoundaryData
 from .fvmesh import FVMesh
-from .gradient import boundary_face_curvature, face_average, interpolate_corrected, interpolate_linear
+from .gradient import boundary_face_curvature, face_average, face_operators, interpolate_corrected, interpolate_linear
 from .linalg import FVPattern, LinearSystem
 
 #: Cap of the quadratic correction of the face velocity, as a fraction of the linear variation
@@ -52,7 +52,7 @@ def face_velocity(mesh: FVMesh, u: np.ndarray, u_b: np.ndarray, grad_u: np.ndarr
     ni = mesh.n_internal
     o, n = mesh.owner[:ni], mesh.neighbour[:ni]
     slope = np.linalg.norm(grad_u, axis=-1)                       # (nc, 2): |grad| of each component
-    cap = QUADRATIC_CAP * np.linalg.norm(mesh.d[:ni], axis=1)[:, None] * 0.5 * (slope[o] + slope[n])
+    cap = QUADRATIC_CAP * face_operators(mesh)["d_length"][:ni, None] * 0.5 * (slope[o] + slope[n])
     cap *= (tri[o] | tri[n])[:, None]
     return lin + np.clip(face_average(mesh, u, u_b) - lin, -cap, cap)
 
@@ -77,7 +77,7 @@ def outflow_face_velocity(mesh: FVMesh, bnd: BoundaryData, u: np.ndarray, u_b: n
         return u_b
     ni = mesh.n_internal
     o = mesh.owner[ni:]
-    cap = QUADRATIC_CAP * np.linalg.norm(mesh.d[ni:], axis=1)[:, None] * np.linalg.norm(grad_u[o], axis=-1)
+    cap = QUADRATIC_CAP * face_operators(mesh)["d_length"][ni:, None] * np.linalg.norm(grad_u[o], axis=-1)
     cap *= tri[o][:, None]
     curv = np.clip(boundary_face_curvature(mesh, u, u_b), -cap, cap)
     return u_b + np.where((bnd.velocity_kind == ZERO_GRADIENT)[:, None], curv, 0.0)
