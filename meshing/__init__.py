@@ -27,17 +27,30 @@ from meshing.quality import (
     check_quality,
     interior_faces,
 )
-from meshing.spec import LEVELS, MeshSpec, first_cell_height, skin_friction
+from meshing.spec import (
+    BOUNDS,
+    CELL_BUDGET,
+    LEVELS,
+    REYNOLDS_RANGE,
+    MeshSpec,
+    MeshSpecError,
+    first_cell_height,
+    skin_friction,
+)
 
 __all__ = [
     "BOUNDARY_GROUPS",
+    "BOUNDS",
+    "CELL_BUDGET",
     "CELL_TYPES",
     "LEVELS",
     "Mesh2D",
     "MeshQualityError",
     "MeshSpec",
+    "MeshSpecError",
     "MeshingError",
     "QualityReport",
+    "REYNOLDS_RANGE",
     "build_mesh",
     "cell_quality",
     "check_quality",

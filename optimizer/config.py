@@ -15,7 +15,9 @@ from __future__ import annotations
 
 import copy
 import dataclasses
+import math
 import reprlib
+import warnings
 from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any, Literal, Self, get_args, get_origin, get_type_hints
@@ -34,7 +36,7 @@ from pydantic import (
 
 from geometry import BladeSpec, Continuity, Mode, ParameterError, ParameterSpace
 from geometry.examples import TABLE4_C2_DESIGN
-from meshing import LEVELS, MeshSpec
+from meshing import LEVELS, MeshSpec, MeshSpecError
 from optimizer import yamlsource
 from optimizer.yamlsource import Source
 from solver import SimpleSettings
@@ -42,6 +44,11 @@ from solver import SimpleSettings
 
 class ConfigError(ValueError):
     """A configuration file or override that cannot be used; the message names the offending key."""
+
+
+class ConfigWarning(UserWarning):
+    """A configuration that runs but lies outside what the solver was validated for (the command line
+    prints it as ``millfoil: warning: ...``)."""
 
 
 def _short_repr() -> reprlib.Repr:
@@ -190,12 +197,18 @@ class FlowConfig(_Frozen):
     the span give the forces on the blade section (N).
     """
 
-    speed: float = Field(10.0, gt=0)
-    density: float = Field(998.2, gt=0)
-    viscosity: float = Field(1.002e-3, gt=0)
-    intensity: float = Field(0.05, ge=0, le=1)
-    viscosity_ratio: float = Field(10.0, gt=0)
-    span: float | None = Field(None, gt=0)
+    speed: float = Field(10.0, ge=1e-3, le=100.0, json_schema_extra={"unit": "m/s"},
+                         description="hydraulic machines' relative velocities stay below ~60 m/s (cavitation); "
+                         "below 1 mm/s a blade's flow is creeping flow")
+    density: float = Field(998.2, ge=0.1, le=2.0e4, json_schema_extra={"unit": "kg/m³"},
+                           description="from a gas at low pressure to mercury (13 546 kg/m³)")
+    viscosity: float = Field(1.002e-3, ge=1e-6, le=1.0e3, json_schema_extra={"unit": "Pa s"},
+                             description="a dynamic viscosity, from gases (~1e-5 Pa s) to heavy oils (~1e3 Pa s)")
+    intensity: float = Field(0.05, ge=0, le=1, description="a fraction: 0.05 is 5 %")
+    viscosity_ratio: float = Field(10.0, gt=0, le=1.0e4, description="nu_t / nu at the inlet: 1-100 in practice; "
+                                   "above 1e4 the inflow's eddy viscosity swamps the blade's boundary layer")
+    span: float | None = Field(None, gt=0, le=1.0e3, json_schema_extra={"unit": "m"},
+                               description="a multiplier of the forces per unit span")
 
     @property
     def kinematic_viscosity(self) -> float:
@@ -205,6 +218,18 @@ class FlowConfig(_Frozen):
     def span_for(self, chord: float) -> float:
         """The span depth (m) for a blade of chord ``chord`` (m)."""
         return self.span if self.span is not None else 0.04 * chord
+
+    def reynolds(self, chord: float) -> float:
+        """Chord Reynolds number ``speed * chord / kinematic_viscosity`` (chord in m)."""
+        return self.speed * chord / self.kinematic_viscosity
+
+
+#: Chord Reynolds numbers each flow model was validated for (docs/solver.md, docs/turbulence.md,
+#: docs/naca0012.md): outside them a configuration runs with a :class:`ConfigWarning`. ``sst``: the channel
+#: at 1e5, the blades at 1e6, the flat plate at 5e6 / m and NACA 0012 at 6e6. ``laminar``: the cylinder
+#: at 20, the cavity at 100 and 1 000, NACA 0012 at 1 000 and 2 000; a blade's boundary layer is
+#: turbulent long before 1e5 anyway.
+VALIDATED_REYNOLDS = {"sst": (1.0e5, 1.0e7), "laminar": (1.0, 2.0e3)}
 
 
 #: Fields of :class:`solver.SimpleSettings` that are not keys of the ``solver:`` section, and why.
@@ -218,23 +243,32 @@ SETTINGS_NOT_CONFIGURED = {
 #: Bounds and choices of the configured settings; their types and defaults are read from
 #: :class:`solver.SimpleSettings` (one definition: the two cannot drift apart). The solver checks the
 #: choices again; here they make a bad value a configuration error that names the key.
+#: ``why``: the reason a bound is shown with (docs/errors.md lists them). Iterations cost ~6 µs per cell
+#: on the development machine (docs/benchmarks.md): 100 000 on the medium mesh are ~3 h.
+_RELATIVE = "a relative change: 1e-12 is below what double precision resolves in a sum of many cells; 1 is 100 %"
+_WINDOW = "iterations; a window of more than 10 000 is never filled by a solve of sensible length"
 SETTING_RULES: dict[str, dict[str, Any]] = {
     "algorithm": {"choices": ("simple", "simplec")},
-    "alpha_u": {"gt": 0, "le": 1},
-    "alpha_p": {"gt": 0, "le": 1},
+    "alpha_u": {"gt": 0, "le": 1, "why": "an under-relaxation factor"},
+    "alpha_p": {"gt": 0, "le": 1, "why": "an under-relaxation factor"},
     "convection": {"choices": ("linear_upwind", "upwind")},
     "limiter": {"choices": ("venkatakrishnan", "barth_jespersen", "none")},
-    "limiter_k": {"gt": 0},
-    "max_iter": {"gt": 0},
-    "tol": {"gt": 0},
-    "monitor_tol": {"gt": 0},
-    "monitor_window": {"ge": 2},
-    "classify_window": {"ge": 8},
-    "classify_tol": {"gt": 0},
-    "stall_tol": {"gt": 0},
+    "limiter_k": {"gt": 0, "le": 1000, "why": "Venkatakrishnan's K: 0.3-10 in practice, and no limiting at all "
+                  "long before 1000"},
+    "max_iter": {"ge": 1, "le": 100_000, "why": "the blade solves converge in 1 000-3 000 iterations; 100 000 on "
+                 "the medium mesh are ~3 h"},
+    "tol": {"ge": 1e-12, "le": 1, "why": "a scaled residual; below 1e-12 it stalls at round-off"},
+    "monitor_tol": {"ge": 1e-12, "le": 1, "why": _RELATIVE},
+    "monitor_window": {"ge": 2, "le": 10_000, "why": _WINDOW},
+    "classify_window": {"ge": 8, "le": 10_000, "why": _WINDOW},
+    "classify_tol": {"ge": 1e-12, "le": 1, "why": _RELATIVE},
+    "stall_tol": {"ge": 1e-12, "le": 1, "why": "a scaled residual; below 1e-12 it stalls at round-off"},
+    "stop_window": {"ge": 2, "le": 10_000, "why": _WINDOW},
+    "stop_tol": {"ge": 1e-12, "le": 1, "why": _RELATIVE},
     "pressure_gradient": {"choices": ("least_squares", "green_gauss")},
-    "divergence_factor": {"gt": 1},
-    "velocity_limit": {"gt": 0},
+    "divergence_factor": {"gt": 1, "le": 1e12, "why": "a residual this many times its minimum is divergence; "
+                          "1e12 leaves no margin in double precision"},
+    "velocity_limit": {"gt": 0, "le": 1e8, "unit": "m/s", "why": "a cell velocity above it is divergence"},
 }
 _SCALARS = (bool, int, float, str)
 
@@ -253,8 +287,11 @@ def _setting_fields() -> dict[str, tuple[Any, Any]]:
             continue
         rules = dict(SETTING_RULES.get(f.name, {}))
         choices = rules.pop("choices", None)
+        why, unit = rules.pop("why", None), rules.pop("unit", None)
         annotation = Literal[choices] if choices else base
-        out[f.name] = (annotation | None if optional else annotation, Field(f.default, **rules))
+        extra = {"unit": unit} if unit else None
+        out[f.name] = (annotation | None if optional else annotation,
+                       Field(f.default, description=why, json_schema_extra=extra, **rules))
     return out
 
 
@@ -307,12 +344,49 @@ class Config(_Frozen):
 
     def mesh_spec(self) -> MeshSpec:
         """The mesh specification: the ``mesh:`` level's preset with the keys the section sets, and
-        ``flow_speed`` and ``viscosity`` (kinematic, m²/s) from ``flow:`` unless the section sets them."""
+        ``flow_speed`` and ``viscosity`` (kinematic, m²/s) from ``flow:`` unless the section sets them;
+        checked (:meth:`meshing.MeshSpec.check_for`: Reynolds number, first cell, cell budget) for the
+        chords the blade space allows (both ends of a free ``L``)."""
         from_flow = {"flow_speed": self.flow.speed, "viscosity": self.flow.kinematic_viscosity}
         try:
-            return MeshSpec.for_level(self.mesh.level, **{**from_flow, **self.mesh.given()})
+            spec = MeshSpec.for_level(self.mesh.level, **{**from_flow, **self.mesh.given()})
         except ValueError as exc:
-            raise ConfigError(f"mesh: {exc}") from None
+            raise ConfigError(_mesh_message(exc)) from None
+        for chord in self.space_chords():
+            self.check_mesh_for(chord, spec)
+        return spec
+
+    def check_mesh_for(self, chord: float, spec: MeshSpec | None = None) -> None:
+        """ConfigError unless the mesh can be built within its limits around a blade of ``chord`` (m)."""
+        try:
+            (spec or self.mesh_spec()).check_for(chord)
+        except MeshSpecError as exc:
+            raise ConfigError(_mesh_message(exc)) from None
+
+    def space_chords(self) -> tuple[float, ...]:
+        """The chords (m) of the blade space: its fixed ``L``, or both ends of ``L``'s range."""
+        space = self.blade.space()
+        if "L" in space.names:
+            i = space.names.index("L")
+            return (float(space.lower[i]), float(space.upper[i]))
+        return (float(space.fixed["L"]),) if "L" in space.fixed else ()
+
+    def warn_reynolds(self, chord: float) -> None:
+        """Issue a :class:`ConfigWarning` if :meth:`reynolds_warning` has one (the commands that solve call
+        it; the command line prints it as one ``millfoil: warning:`` line)."""
+        text = self.reynolds_warning(chord)
+        if text is not None:
+            warnings.warn(text, ConfigWarning, stacklevel=2)
+
+    def reynolds_warning(self, chord: float) -> str | None:
+        """A sentence if the chord Reynolds number at ``chord`` (m) is outside the range the solver's
+        model was validated for (:data:`VALIDATED_REYNOLDS`), else None."""
+        lo, hi = VALIDATED_REYNOLDS[self.solver.model]
+        re = self.flow.reynolds(chord)
+        if lo <= re <= hi:
+            return None
+        return (f"the chord Reynolds number speed * L * density / viscosity = {re:.3g} is outside [{lo:g}, {hi:g}], "
+                f"the range the {self.solver.model} model was validated for: the results are unverified")
 
     def to_yaml(self) -> str:
         """The resolved configuration as YAML: every value, defaults included, the ``mesh:`` section as
@@ -340,14 +414,30 @@ class Config(_Frozen):
             config = cls.model_validate(data)
         except ValidationError as exc:
             raise ConfigError(_explain(exc, cls, source)) from None
+        blade_chord = (lambda: config.check_mesh_for(config.blade.blade_spec().values["L"])) if blade_values else None
         for section, check in (("blade", config.blade.blade_spec if blade_values else None),
-                               ("blade", config.blade.space), ("mesh", config.mesh_spec)):
+                               ("blade", config.blade.space), ("mesh", config.mesh_spec), ("mesh", blade_chord)):
             try:
                 if check is not None:
                     check()   # parameter names and domains, the space and the mesh are checked here, once
             except ConfigError as exc:
-                raise ConfigError(f"{source.where((section,))}: {exc}" if source else str(exc)) from None
+                raise ConfigError(f"{source.where(_mesh_key(section, exc))}: {exc}" if source else str(exc)) from None
         return config
+
+
+def _mesh_message(exc: ValueError) -> str:
+    """A mesh error as a configuration error: ``mesh.FIELD = ...`` for one field, else ``mesh: ...``."""
+    field = getattr(exc, "field", None)
+    text = str(exc)
+    return f"mesh.{text}" if field is not None and text.startswith(f"{field} ") else f"mesh: {text}"
+
+
+def _mesh_key(section: str, exc: ConfigError) -> tuple[str, ...]:
+    """Where a section's error is: ``("mesh", FIELD)`` when the message names a mesh field, else the section."""
+    text = str(exc)
+    if section == "mesh" and text.startswith("mesh.") and " " in text:
+        return ("mesh", text[len("mesh."):].split(" ", 1)[0])
+    return (section,)
 
 
 def load_config(path: str | Path | None = None, overrides: Sequence[str] = (), *,
@@ -455,10 +545,60 @@ def _explain(exc: ValidationError, schema: type[Config], source: Source | None =
             lines.append(f"{at}'{where}' is required")
         elif isinstance(error, _BooleanForNumber):
             lines.append(f"{at}'{where}': {error}")
+        elif (text := range_error(err, loc, schema)) is not None:
+            lines.append(f"{at}{text}")
         else:
             msg = err["msg"].removeprefix("Value error, ")
             lines.append(f"{at}'{where}': {msg} (got {shorten(err['input'])})")
     return "; ".join(lines)
+
+
+_RANGE_ERRORS = ("greater_than", "greater_than_equal", "less_than", "less_than_equal")
+
+
+def range_error(err: Mapping[str, Any], loc: Sequence[Any], schema: type[BaseModel]) -> str | None:
+    """``'KEY' = VALUE is outside [LOW, HIGH]: WHY`` for a pydantic error ``err`` of a value out of its
+    bounds at ``loc`` (the field's ``ge``/``gt``/``le``/``lt`` and its description, the why), else None."""
+    if err["type"] not in _RANGE_ERRORS:
+        return None
+    info = _field_at(schema, loc)
+    if info is None:
+        return None
+    lower, upper = "(-inf", "inf)"
+    for m in info.metadata:
+        for name, text in (("gt", "({:g}"), ("ge", "[{:g}"), ("lt", "{:g})"), ("le", "{:g}]")):
+            if getattr(m, name, None) is not None:
+                bound = text.format(getattr(m, name))
+                lower, upper = (bound, upper) if name[0] == "g" else (lower, bound)
+    extra = info.json_schema_extra if isinstance(info.json_schema_extra, dict) else {}
+    unit = f" {extra['unit']}" if extra.get("unit") else ""
+    why = f": {info.description}" if info.description else ""
+    return f"'{'.'.join(str(p) for p in loc)}' = {_number(err['input'])}{unit} is outside {lower}, {upper}{unit}{why}"
+
+
+def _number(value: Any) -> str:
+    """A number as a user reads it (``1e-300``, ``100000``, ``1e+90``); other input shortened."""
+    if isinstance(value, str):
+        try:
+            value = float(value)
+        except ValueError:
+            return shorten(value)
+    if isinstance(value, int) and not isinstance(value, bool):
+        digits = str(abs(value))
+        return str(value) if len(digits) < 16 else f"{'-' * (value < 0)}{digits[0]}.{digits[1:4]}e+{len(digits) - 1}"
+    return f"{value:g}" if isinstance(value, float) and math.isfinite(value) else shorten(value)
+
+
+def _field_at(schema: type[BaseModel], loc: Sequence[Any]) -> Any:
+    """The pydantic FieldInfo at ``loc`` (section models followed), or None."""
+    model, info = schema, None
+    for part in loc:
+        fields = getattr(model, "model_fields", None)
+        if not isinstance(fields, dict) or str(part) not in fields:
+            return None
+        info = fields[str(part)]
+        model = info.annotation
+    return info
 
 
 def _allowed_keys(schema: type[BaseModel], loc: Sequence[Any]) -> list[str]:

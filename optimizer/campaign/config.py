@@ -41,7 +41,16 @@ import yaml
 from pydantic import Field, ValidationError, field_validator, model_validator
 
 from optimizer.campaign.runner import ExecutionConfig
-from optimizer.config import Config, ConfigError, _Frozen, apply_overrides, load_config, set_values, shorten
+from optimizer.config import (
+    Config,
+    ConfigError,
+    _Frozen,
+    apply_overrides,
+    load_config,
+    range_error,
+    set_values,
+    shorten,
+)
 from optimizer.yamlsource import Source
 
 #: Figures of :class:`optimizer.evaluate.Evaluation` that can be objectives or constraints, with units.
@@ -268,6 +277,8 @@ def explain(exc: ValidationError, source: Any, schema: type) -> str:
             lines.append(f"{at}: '{where}' = {shorten(err['input'])} is not allowed; allowed: {err['ctx']['expected']}")
         elif err["type"] == "missing":
             lines.append(f"{at}: '{where}' is required")
+        elif (text := range_error(err, loc, schema)) is not None:    # the range and why (optimizer.config)
+            lines.append(f"{at}: {text}")
         else:
             msg = err["msg"].removeprefix("Value error, ")
             named = re.search(r"unknown key '([^']+)'", msg)     # a section that checks its own keys

@@ -16,11 +16,12 @@ from __future__ import annotations
 
 import argparse
 import sys
+import warnings
 from collections.abc import Sequence
 
 from optimizer.cli import blade, campaign, evaluate, export, mesh, report, validate
 from optimizer.cli.common import EXIT_FAILED, EXIT_INFEASIBLE, EXIT_INPUT, EXIT_OK, HelpFormatter
-from optimizer.config import ConfigError
+from optimizer.config import ConfigError, ConfigWarning
 from optimizer.saving import WriteFailure
 
 __all__ = ["COMMANDS", "EXIT_FAILED", "EXIT_INFEASIBLE", "EXIT_INPUT", "EXIT_OK", "main"]
@@ -37,13 +38,24 @@ def main(argv: Sequence[str] | None = None) -> int:
         parser.print_help()
         return EXIT_INPUT
     try:
-        return args.run(args)
+        with warnings.catch_warnings():
+            warnings.simplefilter("always", ConfigWarning)
+            warnings.showwarning = _show_warning
+            return args.run(args)
     except ConfigError as exc:
         print(f"millfoil: error: {exc}", file=sys.stderr)
         return EXIT_INPUT
     except WriteFailure as exc:
         print(f"millfoil: error: {exc}", file=sys.stderr)
         return EXIT_FAILED
+
+
+def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:
+    """A :class:`ConfigWarning` as one line ``millfoil: warning: ...`` on stderr; others as Python shows them."""
+    if issubclass(category, ConfigWarning):
+        print(f"millfoil: warning: {message}", file=sys.stderr)
+    else:
+        print(warnings.formatwarning(message, category, filename, lineno, line), end="", file=file or sys.stderr)
 
 
 def _parser() -> argparse.ArgumentParser:

@@ -57,6 +57,7 @@ def run_evaluate(args: argparse.Namespace) -> int:
         raise ConfigError(f"--every must be >= 0, got {args.every}")
     if args.save:
         check_output_directory(args.save, "--save")    # before the solve, not after it
+    config.warn_reynolds(config.blade.blade_spec().values["L"])
     evaluation = evaluate(config, log=progress_printer(args.quiet), every=args.every)
     written = save(evaluation, config, args.save) if args.save else []
     if args.json:

@@ -83,7 +83,7 @@ def test_mesh_command_writes_mesh_and_plot(tmp_path, capsys):
 
 def test_mesh_options_are_validated(capsys):
     assert main(["mesh", "--set", "mesh.growth=1.5"]) == EXIT_INPUT
-    assert "growth must lie in (1, 1.2]" in capsys.readouterr().err
+    assert "mesh.growth = 1.5 is outside [1.01, 1.2]" in capsys.readouterr().err
     assert main(["mesh", "--set", "mesh.cells=5"]) == EXIT_INPUT
     assert "unknown key 'mesh.cells'; allowed: level, upstream" in capsys.readouterr().err
 
