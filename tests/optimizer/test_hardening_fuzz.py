@@ -10,7 +10,7 @@ overrides and options, each asserted to
 Cases: a corpus of every class of the issue (files x commands, output locations, options), hypothesis over
 ``--set`` keys and values and over whole YAML documents, and a few real subprocesses. Commands are run
 in-process through ``optimizer.cli.main``; ``mesh`` and ``evaluate`` only with inputs refused before any
-stage (the fuzzer never meshes or solves). The fast tier runs about 200 cases in about 10 s; ``slow``
+stage (the fuzzer never meshes or solves). The fast tier runs about 260 cases in about 12 s; ``slow``
 multiplies the hypothesis examples and adds the subprocesses.
 """
 
@@ -216,6 +216,61 @@ def test_options(argv, named):
     assert case(argv, named=named).code == 2
 
 
+#: Values out of their range or beyond the mesh's cost (docs/errors.md, "Mesh, flow and solver values"):
+#: (override, what the one message holds: the key and the range it is refused by).
+LIMITS = [
+    ("mesh.upstream=1e6", "mesh.upstream = 1e+06 chords is outside (0, 100] chords"),
+    ("mesh.downstream=1e300", "mesh.downstream = 1e+300 chords is outside"),
+    ("mesh.half_height=-1", "mesh.half_height = -1 chords is outside (0, 50]"),
+    ("mesh.wall_nodes=" + str(10**12), "mesh.wall_nodes = 1e+12 is outside [16, 4000]"),
+    ("mesh.wall_nodes=3", "mesh.wall_nodes = 3 is outside [16, 4000]"),
+    ("mesh.growth=1.0000001", "mesh.growth = 1 is outside [1.01, 1.2]"),
+    ("mesh.growth=1e9", "mesh.growth = 1e+09 is outside [1.01, 1.2]"),
+    ("mesh.y_plus=1e-9", "mesh.y_plus = 1e-09 is outside [0.01, 300]"),
+    ("mesh.far_size=1e-6", "mesh.far_size = 1e-06 chords is outside [0.01, 10]"),
+    ("mesh.size_gradient=1e-5", "mesh.size_gradient = 1e-05 is outside [0.01, 1]"),
+    ("mesh.max_turn=0.001", "mesh.max_turn = 0.001 deg is outside [2, 45]"),
+    ("mesh.side_offset=50", "mesh.side_offset = 50 chords is outside (0, 1]"),
+    ("mesh.far_size=0.01", "this mesh would have about"),                     # each key in range, the sum not
+    ("mesh.flow_speed=1e-300", "the chord Reynolds number"),
+    ("mesh.viscosity=1e-300", "the chord Reynolds number"),
+    ("mesh.y_plus=300", None),                                                # in range, and the first cell fits
+    ("flow.speed=1e-300", "'flow.speed' = 1e-300 m/s is outside [0.001, 100] m/s"),
+    ("flow.speed=1e6", "'flow.speed' = 1e+06 m/s is outside"),
+    ("flow.density=1e-12", "'flow.density' = 1e-12 kg/m³ is outside [0.1, 20000]"),
+    ("flow.viscosity=1e30", "'flow.viscosity' = 1e+30 Pa s is outside [1e-06, 1000]"),
+    ("flow.viscosity=1e-6", None),                                            # Re = 1e9: warned by evaluate only
+    ("flow.viscosity_ratio=1e9", "'flow.viscosity_ratio' = 1e+09 is outside (0, 10000]"),
+    ("flow.span=1e20", "'flow.span' = 1e+20 m is outside (0, 1000] m"),
+    ("flow.speed=0.001", "mesh.y_plus = 1 puts the first cell"),            # Re = 100: y+ 1 is 5.7 mm up
+    ("solver.max_iter=" + str(10**90), "'solver.max_iter' = 1.000e+90 is outside [1, 100000]"),
+    ("solver.max_iter=1000000", "'solver.max_iter' = 1000000 is outside [1, 100000]"),
+    ("solver.tol=1e-300", "'solver.tol' = 1e-300 is outside [1e-12, 1]"),
+    ("solver.classify_window=" + str(10**9), "'solver.classify_window' = 1000000000 is outside [8, 10000]"),
+    ("solver.stop_window=1", "'solver.stop_window' = 1 is outside [2, 10000]"),
+    ("solver.limiter_k=1e300", "'solver.limiter_k' = 1e+300 is outside (0, 1000]"),
+    ("solver.divergence_factor=1", "'solver.divergence_factor' = 1 is outside (1, 1e+12]"),
+    ("solver.velocity_limit=1e300", "'solver.velocity_limit' = 1e+300 m/s is outside (0, 1e+08] m/s"),
+]
+
+
+@pytest.mark.parametrize("override,message", LIMITS, ids=[o for o, _ in LIMITS])
+@pytest.mark.parametrize("command", [["profile"], ["mesh", "--out", "m.xyz"]],
+                         ids=lambda c: c[0])
+def test_values_beyond_their_limits(override, message, command):
+    """Refused (exit 2) with the key and its range, before any stage; an accepted value runs ``profile``
+    (and ``mesh`` is then refused for its ``--out`` suffix, before meshing)."""
+    outcome = case([*command, "--set", override], named=(message,) if message else ("--out",))
+    assert outcome.code == (0 if message is None and command == ["profile"] else 2), outcome.err
+    if message is None and command == ["profile"]:
+        assert outcome.err == ""                                   # no warning where nothing is solved
+
+
+def test_a_campaign_names_the_range_too():
+    case(["check", QUICKSTART, "--set", "flow.speed=1e-300"], named=("'flow.speed' = 1e-300 m/s is outside",))
+    case(["check", QUICKSTART, "--set", "mesh.upstream=1e6"], named=("mesh.upstream = 1e+06 chords is outside",))
+
+
 def test_a_good_run_leaves_exactly_its_files():
     with tempfile.TemporaryDirectory() as tmp:
         outcome = run_cli(["profile", "--out", "p.csv"], Path(tmp))
@@ -228,7 +283,9 @@ def test_a_good_run_leaves_exactly_its_files():
 KEYS = ["alpha", "beta1", "beta1bar", "L", "d_s1", "d_s2", "d_s3", "d_s4", "d_p3", "d_p4", "u_s2", "k2", "R",
         "blade.mode", "blade.continuity", "blade.parameters", "blade.bounds.alpha", "blade.fixed.L", "blade",
         "mesh.level", "mesh.upstream", "mesh.wall_nodes", "mesh.growth", "mesh.y_plus", "mesh",
-        "flow.speed", "flow.density", "flow.span", "flow.intensity", "solver.model", "solver.max_iter",
+        "mesh.far_size", "mesh.size_gradient", "mesh.max_turn", "mesh.half_height", "mesh.flow_speed",
+        "flow.speed", "flow.density", "flow.span", "flow.intensity", "flow.viscosity", "flow.viscosity_ratio",
+        "solver.model", "solver.max_iter", "solver.classify_window", "solver.stop_tol", "solver.velocity_limit",
         "solver.tol", "solver.alpha_u", "solver.limiter", "solver", "colour", "blade.colour", "flow.speed.x",
         "a.b.c.d.e", "blade.parameters.alpha.x"]
 CAMPAIGN_KEYS = ["algorithm.population", "algorithm.generations", "algorithm.seed", "objectives",
