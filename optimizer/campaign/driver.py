@@ -271,8 +271,8 @@ class _Loop:
             rows, counts = self._evaluate(offspring.get("X"), g)
             self._set_values(offspring, rows)
             algorithm.tell(infills=offspring)
-            self._store_generation(algorithm, g, rows, counts)
             self.generation_seconds.append(time.perf_counter() - t0)
+            self._store_generation(algorithm, g, rows, counts)
 
     def _evaluate(self, X: np.ndarray, g: int) -> tuple[list[EvaluationRow], dict]:
         """One row per design of ``X`` (in order): stored, infeasible, or evaluated now."""
@@ -358,7 +358,7 @@ class _Loop:
         by_status = self.store.count_by_status(g)
         state.done = by_status.get("ok", 0)
         state.failed = sum(n for s, n in by_status.items() if s not in ("ok", "infeasible"))
-        state.eta_s = self._eta(g + 1, 0, state.workers)
+        state.eta_s = self._eta(g, 0, state.workers)
         self.progress(state)
 
     def _hypervolume(self, pop) -> float | None:
@@ -405,16 +405,18 @@ class _Loop:
         return {"best": dict(self.best), "hypervolume": None if last is None else last.hypervolume}
 
     def _eta(self, g: int, remaining_tasks: int, workers: int) -> float | None:
-        """Seconds to the end: mean generation time of this session times the generations left, or (before
-        a generation has finished) the mean evaluation time over the tasks left."""
-        left = self.algorithm_config.generations - g
-        if self.generation_seconds:
-            return float(np.mean(self.generation_seconds)) * left
-        if not self.evaluation_seconds:
+        """Seconds to the end while generation ``g`` has ``remaining_tasks`` evaluations to go: those at the
+        mean evaluation time over the workers, then the generations after ``g`` at the mean generation time
+        of this session (or, before one has finished, a full generation of evaluations each)."""
+        if not self.evaluation_seconds and not self.generation_seconds:
             return None
-        per = float(np.mean(self.evaluation_seconds)) / max(workers, 1)
-        per_generation = per * (self.algorithm_config.offspring or self.algorithm_config.population)
-        return per * remaining_tasks + per_generation * max(left - 1, 0)
+        per = float(np.mean(self.evaluation_seconds)) / max(workers, 1) if self.evaluation_seconds else 0.0
+        after = self.algorithm_config.generations - g - 1
+        if self.generation_seconds:
+            per_generation = float(np.mean(self.generation_seconds))
+        else:
+            per_generation = per * (self.algorithm_config.offspring or self.algorithm_config.population)
+        return per * remaining_tasks + per_generation * max(after, 0)
 
 
 def _maybe(kind, v):

@@ -22,7 +22,7 @@ The record (the driver stores it and judges it with :meth:`CampaignProblem.asses
                   accepted oscillating solve whatever the whole solve's class)
     monitors      {monitor: {"mean", "amplitude", "drift", "period", "status"}} over the solve's window
     missing       {figure: reason} for figures without a value
-    cells, iterations, seconds ({stage: s})
+    cells, iterations, seconds ({stage: wall s} plus "total" and "cpu", the worker process's CPU time)
 
 BLAS/OpenMP threads are pinned to one in the worker: evaluations are parallel across processes.
 """
@@ -88,7 +88,7 @@ def _pipeline() -> Callable[..., Any]:
 
 
 def evaluate_blade_payload(payload: dict) -> dict:
-    t0 = time.perf_counter()
+    t0, cpu0 = time.perf_counter(), time.process_time()
     try:
         config = blade_config(payload)
     except Exception as exc:     # a payload the driver built from a validated config: a bug, say so
@@ -106,6 +106,7 @@ def evaluate_blade_payload(payload: dict) -> dict:
     if passed:
         record.update(status="timeout", reason=f"stopped at the runner's deadline; {record['reason']}")
     record["seconds"]["total"] = time.perf_counter() - t0
+    record["seconds"]["cpu"] = time.process_time() - cpu0     # the worker's CPU time: what load does not inflate
     return record
 
 
