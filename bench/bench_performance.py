@@ -54,7 +54,7 @@ def run_case(raw: dict, overrides: list[str]) -> dict:
     ev = evaluate(Config.from_mapping(raw))
     cpu, wall = time.process_time() - c0, time.perf_counter() - t0
     flow = ev.artifacts.flow
-    row = {"status": ev.status, "cells": ev.cells, "iterations": ev.iterations, "c_l": ev.c_l,
+    row = {"status": ev.status, "message": ev.message, "cells": ev.cells, "iterations": ev.iterations, "c_l": ev.c_l,
            "c_max": ev.c_max, "total_s": wall, "total_cpu_s": cpu, **{f"{k}_s": v for k, v in ev.seconds.items()}}
     if flow is not None and flow.iterations:
         per_it = flow.wall_time / flow.iterations

@@ -88,19 +88,23 @@ def settled(res: dict, monitors: dict, it: int, cfg: SimpleSettings) -> bool:
 
 
 def established(monitors: dict, it: int, cfg: SimpleSettings):
-    """``(status, message, classification)`` of a solve whose monitors will not settle, or None.
+    """``(status, message, classification)`` of a solve whose monitors will not settle by ``max_iter``, or
+    None.
 
     From ``3 classify_window`` iterations on (checked every 50), the last ``classify_window`` iterations
     and the ``classify_window`` before them are classified (:func:`solver.convergence.classify`). The solve
     stops with the last window's class and figures — what it would get at ``max_iter`` — when both
-    windows agree and the behaviour is established in every monitor that is not stationary:
+    windows agree and, in every monitor that is not stationary, the behaviour is established and its
+    decay from one window to the next, extrapolated to ``max_iter``, still leaves it above ``classify_tol``:
 
-    * ``oscillating``: amplitude within a factor 1.5 between the windows, means apart by less than a
-      quarter of the amplitude (no trend), periods (where both are found) within 20 %;
-    * ``not_converged`` (drifting): the trend has the same sign in both windows and has not decayed
-      (last drift at least 0.7 x the previous one), so the monitor is not creeping towards a value.
+    * ``oscillating``: periods (where both are found) within 20 %, means apart by less than a quarter of
+      the amplitude, amplitude not growing by more than 1.5x, and ``2 a (a / a_before)^m`` (``m`` windows
+      left; no decay assumed when it grows) above ``classify_tol`` times the mean;
+    * ``not_converged`` (drifting): the trend has the same sign in both windows and ``d (d / d_before)^m``
+      is above ``classify_tol`` times the mean.
 
-    Off when ``early_classify`` is False."""
+    So a slowly decaying oscillation or a drift that would settle before the cap runs on. Off when
+    ``early_classify`` is False."""
     w = cfg.classify_window
     if not cfg.early_classify or it < 3 * w or it % 50:
         return None
@@ -109,27 +113,32 @@ def established(monitors: dict, it: int, cfg: SimpleSettings):
     if now.status not in ("oscillating", "not_converged"):
         return None
     before = classify({k: v[:-w] for k, v in arrays.items()}, window=w, tol=cfg.classify_tol)
+    windows_left = max(cfg.max_iter - it, 0) / w
     for name, verdict in now.monitor_status.items():
         if verdict == "stationary":
             continue
-        if before.monitor_status[name] != verdict or not _persists(now, before, name, verdict):
+        if before.monitor_status[name] != verdict or not _persists(now, before, name, verdict, windows_left,
+                                                                   cfg.classify_tol):
             return None
     head = f"stopped at iteration {it}: {now.status} established over {2 * w} iterations"
     return now.status, f"{head}; {now.reason}", now
 
 
-def _persists(now, before, name: str, verdict: str) -> bool:
-    """Whether monitor ``name`` behaves the same in the two windows (see :func:`established`)."""
+def _persists(now, before, name: str, verdict: str, windows_left: float, tol: float) -> bool:
+    """Whether monitor ``name`` keeps its verdict up to ``max_iter`` (see :func:`established`)."""
+    limit = tol * max(abs(now.mean[name]), 1e-300)
     if verdict == "oscillating":
         a1, a0 = now.amplitude[name], before.amplitude[name]
-        if not (a0 > 0 and a1 > 0 and 1 / 1.5 <= a1 / a0 <= 1.5):
+        if not (a0 > 0 and a1 > 0 and a1 <= 1.5 * a0):
             return False
         if abs(now.mean[name] - before.mean[name]) > 0.25 * a1:
             return False
         p1, p0 = now.period[name], before.period[name]
-        return p1 is None or p0 is None or abs(p1 - p0) <= 0.2 * p0
+        if p1 is not None and p0 is not None and abs(p1 - p0) > 0.2 * p0:
+            return False
+        return 2.0 * a1 * min(a1 / a0, 1.0) ** windows_left > limit
     d1, d0 = now.drift[name], before.drift[name]
-    return d1 * d0 > 0 and abs(d1) >= 0.7 * abs(d0)
+    return d1 * d0 > 0 and abs(d1) * min(abs(d1 / d0), 1.0) ** windows_left > limit
 
 
 def classify_at_cap(monitors: dict, hist: dict, cfg: SimpleSettings):
