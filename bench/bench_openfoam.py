@@ -1,0 +1,307 @@
+"""millfoil against OpenFOAM's simpleFoam + kOmegaSST on the same mesh, one core each, back to back.
+
+For the benchmark blade (and ``--blades`` random Table 6 blades) at each ``--levels`` level: builds the mesh
+once, writes it as an OpenFOAM ``polyMesh`` (the 2D cells extruded one cell, front and back ``empty``;
+written directly from the solver's finite-volume mesh, so both codes solve on the very same cells), sets
+up the same conditions (uniform inlet C0 with 5 % intensity and nu_t/nu = 10, outlet p = 0, symmetry top
+and bottom, blade wall with Spalding wall functions as millfoil's ``automatic``), runs ``simpleFoam``
+(SIMPLEC ``consistent``, α_U 0.9, bounded linearUpwind, GAMG) and millfoil (its defaults), and prints per
+case: iterations to lift within 0.5 % and 0.1 % of the final value, time per iteration, time to those
+points, C_L and the ratio millfoil / OpenFOAM.
+
+OpenFOAM comes from Debian's ``openfoam`` package; the script runs ``apt-get install -y openfoam`` where
+``simpleFoam`` is missing (``--no-install`` to skip; the OpenFOAM columns then say why they are empty).
+
+    OMP_NUM_THREADS=1 python bench/bench_openfoam.py --levels coarse medium --blades 2 --iterations 600
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import re
+import shutil
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).parents[1]
+sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / "bench"))
+
+from bench_performance import cases, iterations_within  # noqa: E402
+
+DEPTH = 0.01        # extrusion depth, m (forces are divided by it: per unit span)
+HEADER = """FoamFile
+{{
+    version 2.0;
+    format ascii;
+    class {cls};
+    location "{loc}";
+    object {obj};
+}}
+"""
+
+
+# --------------------------------------------------------------------------------------------- the mesh
+def write_polymesh(mesh, directory: Path) -> None:
+    """``constant/polyMesh`` of the 2D finite-volume mesh ``mesh`` extruded by :data:`DEPTH` along z.
+
+    Internal faces in upper-triangular order (owner < neighbour, sorted by owner then neighbour), each
+    face's node order giving a normal from owner to neighbour (outward on boundaries); boundary faces per
+    group as in ``mesh.boundary``, then the front and back faces (patch ``frontAndBack``, type empty)."""
+    poly = directory / "constant" / "polyMesh"
+    poly.mkdir(parents=True, exist_ok=True)
+    npts, ni, nc = len(mesh.points), mesh.n_internal, mesh.n_cells
+    pts = np.vstack([np.column_stack([mesh.points, np.zeros(npts)]),
+                     np.column_stack([mesh.points, np.full(npts, DEPTH)])])
+    owner, neigh, faces = mesh.owner.copy(), mesh.neighbour.copy(), mesh.faces.copy()
+    swap = np.zeros(len(faces), bool)
+    swap[:ni] = owner[:ni] > neigh[:ni]
+    owner[:ni][swap[:ni]], neigh[:ni][swap[:ni]] = mesh.neighbour[:ni][swap[:ni]], mesh.owner[:ni][swap[:ni]]
+    sf = np.where(swap[:, None], -mesh.sf, mesh.sf)
+    edge = mesh.points[faces[:, 1]] - mesh.points[faces[:, 0]]
+    flip = edge[:, 1] * sf[:, 0] - edge[:, 0] * sf[:, 1] < 0      # quad (a, b, b', a') has normal (e_y, -e_x)
+    faces[flip] = faces[flip][:, ::-1]
+    order = np.lexsort((neigh[:ni], owner[:ni]))
+    side = [[int(a), int(b), int(b) + npts, int(a) + npts] for a, b in faces]
+    quads = [side[i] for i in order] + side[ni:]
+    own = list(owner[:ni][order]) + list(owner[ni:])
+    nei = list(neigh[:ni][order])
+    cells = np.concatenate([np.pad(c, ((0, 0), (0, 4 - c.shape[1])), constant_values=-1)
+                            for c in mesh.cells.values()])
+    for c, nodes in enumerate(cells):
+        nodes = [int(v) for v in nodes if v >= 0]
+        xy = mesh.points[nodes]
+        area = 0.5 * np.sum(xy[:, 0] * np.roll(xy[:, 1], -1) - np.roll(xy[:, 0], -1) * xy[:, 1])
+        if area < 0:
+            nodes = nodes[::-1]
+        quads.append(nodes[::-1])                          # back, normal -z
+        quads.append([v + npts for v in nodes])            # front, normal +z
+        own += [c, c]
+    note = f'note "nPoints: {len(pts)} nCells: {nc} nFaces: {len(quads)} nInternalFaces: {ni}";'
+
+    def write(name, cls, body):
+        head = HEADER.format(cls=cls, loc="constant/polyMesh", obj=name)
+        if name == "owner":
+            head = head.replace("object owner;", f"object owner;\n    {note}")
+        (poly / name).write_text(head + body)
+
+    write("points", "vectorField", f"{len(pts)}\n(\n" + "".join(f"({x:.12g} {y:.12g} {z:.12g})\n" for x, y, z in pts)
+          + ")\n")
+    write("faces", "faceList", f"{len(quads)}\n(\n" + "".join(f"{len(q)}({' '.join(map(str, q))})\n" for q in quads)
+          + ")\n")
+    write("owner", "labelList", f"{len(own)}\n(\n" + "\n".join(map(str, own)) + "\n)\n")
+    write("neighbour", "labelList", f"{len(nei)}\n(\n" + "\n".join(map(str, nei)) + "\n)\n")
+    types = {"inlet": "patch", "outlet": "patch", "top": "symmetry", "bottom": "symmetry", "blade": "wall"}
+    entries, start = [], ni
+    for g in mesh.group_names:
+        n = len(mesh.boundary[g])
+        entries.append(f"    {g}\n    {{\n        type {types.get(g, 'patch')};\n        nFaces {n};\n"
+                       f"        startFace {start};\n    }}\n")
+        start += n
+    entries.append(f"    frontAndBack\n    {{\n        type empty;\n        nFaces {2 * nc};\n"
+                   f"        startFace {start};\n    }}\n")
+    write("boundary", "polyBoundaryMesh", f"{len(entries)}\n(\n" + "".join(entries) + ")\n")
+
+
+# --------------------------------------------------------------------------------------------- the case
+def write_case(directory: Path, speed: float, rho: float, mu: float, intensity: float, ratio: float,
+               iterations: int) -> None:
+    """``0/``, ``constant/`` and ``system/`` of the simpleFoam case (kinematic pressure, p = 0 at the outlet)."""
+    nu = mu / rho
+    k = 1.5 * (intensity * speed) ** 2
+    omega = k / (nu * ratio)
+    files = {
+        "constant/transportProperties": ("dictionary", f"transportModel Newtonian;\nnu {nu:.8g};\n"),
+        "constant/turbulenceProperties": ("dictionary", "simulationType RAS;\nRAS\n{\n    RASModel kOmegaSST;\n"
+                                          "    turbulence on;\n    printCoeffs off;\n}\n"),
+        "system/controlDict": ("dictionary", f"""application simpleFoam;
+startFrom startTime;
+startTime 0;
+stopAt endTime;
+endTime {iterations};
+deltaT 1;
+writeControl timeStep;
+writeInterval {iterations};
+writeFormat ascii;
+runTimeModifiable false;
+functions
+{{
+    forces
+    {{
+        type forces;
+        libs ("libforces.so");
+        patches (blade);
+        rho rhoInf;
+        rhoInf {rho};
+        CofR (0 0 0);
+        writeControl timeStep;
+        writeInterval 1;
+    }}
+}}
+"""),
+        "system/fvSchemes": ("dictionary", """ddtSchemes { default steadyState; }
+gradSchemes { default Gauss linear; }
+divSchemes
+{
+    default none;
+    div(phi,U) bounded Gauss linearUpwind grad(U);
+    div(phi,k) bounded Gauss upwind;
+    div(phi,omega) bounded Gauss upwind;
+    div((nuEff*dev2(T(grad(U))))) Gauss linear;
+}
+laplacianSchemes { default Gauss linear corrected; }
+interpolationSchemes { default linear; }
+snGradSchemes { default corrected; }
+wallDist { method meshWave; }
+"""),
+        "system/fvSolution": ("dictionary", """solvers
+{
+    p { solver GAMG; smoother GaussSeidel; tolerance 1e-7; relTol 0.05; }
+    "(U|k|omega)" { solver smoothSolver; smoother GaussSeidel; tolerance 1e-8; relTol 0.1; }
+}
+SIMPLE
+{
+    nNonOrthogonalCorrectors 0;
+    consistent yes;
+    residualControl { p 1e-6; U 1e-6; "(k|omega)" 1e-6; }
+}
+relaxationFactors { equations { U 0.9; ".*" 0.9; } }
+"""),
+    }
+
+    def field(name, cls, dims, internal, patches):
+        body = f"dimensions {dims};\ninternalField uniform {internal};\nboundaryField\n{{\n"
+        for patch, spec in patches.items():
+            body += f"    {patch}\n    {{\n        {spec}\n    }}\n"
+        body += "    frontAndBack { type empty; }\n    \"(top|bottom)\" { type symmetry; }\n}\n"
+        files[f"0/{name}"] = (cls, body)
+
+    u = f"({speed} 0 0)"
+    field("U", "volVectorField", "[0 1 -1 0 0 0 0]", u, {
+        "inlet": f"type fixedValue; value uniform {u};", "outlet": f"type inletOutlet; inletValue uniform (0 0 0); "
+        f"value uniform {u};", "blade": "type noSlip;"})
+    field("p", "volScalarField", "[0 2 -2 0 0 0 0]", "0", {
+        "inlet": "type zeroGradient;", "outlet": "type fixedValue; value uniform 0;", "blade": "type zeroGradient;"})
+    field("k", "volScalarField", "[0 2 -2 0 0 0 0]", f"{k:.8g}", {
+        "inlet": f"type fixedValue; value uniform {k:.8g};",
+        "outlet": f"type inletOutlet; inletValue uniform {k:.8g}; value uniform {k:.8g};",
+        "blade": f"type kqRWallFunction; value uniform {k:.8g};"})
+    field("omega", "volScalarField", "[0 0 -1 0 0 0 0]", f"{omega:.8g}", {
+        "inlet": f"type fixedValue; value uniform {omega:.8g};",
+        "outlet": f"type inletOutlet; inletValue uniform {omega:.8g}; value uniform {omega:.8g};",
+        "blade": f"type omegaWallFunction; value uniform {omega:.8g};"})
+    field("nut", "volScalarField", "[0 2 -1 0 0 0 0]", "0", {
+        "inlet": "type calculated; value uniform 0;", "outlet": "type calculated; value uniform 0;",
+        "blade": "type nutUSpaldingWallFunction; value uniform 0;"})
+    for rel, (cls, body) in files.items():
+        path = directory / rel
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(HEADER.format(cls=cls, loc=str(Path(rel).parent), obj=Path(rel).name) + body)
+
+
+#: Debian's package needs its environment (WM_PROJECT_DIR, etc/controlDict) sourced before running a solver.
+_BASHRC = Path("/usr/share/openfoam/etc/bashrc")
+_ENV = f"source {_BASHRC} >/dev/null 2>&1; " if _BASHRC.exists() else ""
+
+
+def ensure_openfoam(install: bool) -> str | None:
+    """None when ``simpleFoam`` runs, else why not (after trying ``apt-get install -y openfoam``)."""
+    if shutil.which("simpleFoam"):
+        return None
+    if not install:
+        return "simpleFoam not found (--no-install)"
+    try:
+        subprocess.run(["apt-get", "install", "-y", "-q", "openfoam"], check=True, capture_output=True, timeout=1800)
+    except (OSError, subprocess.SubprocessError) as exc:
+        return f"apt-get install openfoam failed: {exc}"
+    return None if shutil.which("simpleFoam") else "simpleFoam still missing after apt-get install openfoam"
+
+
+def run_openfoam(directory: Path, half_dynamic: float) -> dict:
+    """Run simpleFoam in ``directory``; lift history (C_L per iteration) and timings from its log and forces."""
+    t0 = time.perf_counter()
+    with open(directory / "log.simpleFoam", "w") as log:
+        subprocess.run(["bash", "-c", f'{_ENV}simpleFoam -case "{directory}"'], stdout=log,
+                       stderr=subprocess.STDOUT, check=False)
+    wall = time.perf_counter() - t0
+    text = (directory / "log.simpleFoam").read_text()
+    exec_times = [float(t) for t in re.findall(r"ExecutionTime = ([0-9.eE+-]+) s", text)]
+    force_files = sorted((directory / "postProcessing" / "forces").glob("*/force.dat"))
+    if not force_files or not exec_times:
+        return {"error": f"no forces or no iterations (see {directory / 'log.simpleFoam'})"}
+    rows = [line.replace("(", " ").replace(")", " ").split() for line in force_files[0].read_text().splitlines()
+            if line and not line.startswith("#")]
+    fy = np.array([float(r[2]) for r in rows]) / DEPTH            # total force y, N per metre of span
+    n = len(fy)
+    per_it = (exec_times[-1] - exec_times[0]) / max(len(exec_times) - 1, 1)
+    return {"iterations": n, "ms_per_iteration": 1e3 * per_it, "c_l": fy[-1] / half_dynamic, "fy": fy,
+            "wall_s": wall}
+
+
+def run_millfoil(config, fvmesh) -> dict:
+    from optimizer.pipeline import solve_flow
+
+    flow = solve_flow(config, fvmesh)
+    fy = np.asarray(flow.monitors["fy:blade"])
+    return {"iterations": flow.iterations, "ms_per_iteration": 1e3 * flow.wall_time / flow.iterations, "fy": fy,
+            "status": flow.status, "wall_s": flow.wall_time}
+
+
+def summarise(run: dict, half_dynamic: float) -> dict:
+    fy = run["fy"]
+    out = dict(run, c_l=fy[-1] / half_dynamic, lift_0_5=iterations_within(fy, 5e-3),
+               lift_0_1=iterations_within(fy, 1e-3))
+    out["s_0_5"] = out["lift_0_5"] * run["ms_per_iteration"] / 1e3
+    out["s_0_1"] = out["lift_0_1"] * run["ms_per_iteration"] / 1e3
+    return out
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--levels", nargs="+", default=["coarse", "medium"])
+    parser.add_argument("--blades", type=int, default=2)
+    parser.add_argument("--iterations", type=int, default=600, help="simpleFoam iterations (it never meets 1e-6)")
+    parser.add_argument("--work", type=Path, default=ROOT / "runs" / "bench_openfoam")
+    parser.add_argument("--no-install", action="store_true")
+    args = parser.parse_args()
+    from optimizer.config import Config
+    from optimizer.pipeline import _meshes, blade_profile
+
+    why = ensure_openfoam(not args.no_install)
+    print(f"# load average {os.getloadavg()[0]:.1f}, OMP_NUM_THREADS={os.environ.get('OMP_NUM_THREADS')}, "
+          f"{time.strftime('%Y-%m-%d %H:%M')}; OpenFOAM: {why or shutil.which('simpleFoam')}")
+    print("| case | code | iterations | lift 0.5 % / 0.1 % | ms / iteration | s to 0.5 % / 0.1 % | C_L "
+          "| ratio (0.1 %) |")
+    print("| --- | --- | --- | --- | --- | --- | --- | --- |")
+    for name, raw in cases(args.blades, args.levels):
+        config = Config.from_mapping(raw)
+        flow = config.flow
+        half_dynamic = 0.5 * flow.density * flow.speed**2 * config.blade.blade_spec().values["L"]
+        _, fvmesh = _meshes(config, blade_profile(config))
+        mf = summarise(run_millfoil(config, fvmesh), half_dynamic)
+        of = None
+        if why is None:
+            case = args.work / name.replace(" ", "_")
+            shutil.rmtree(case, ignore_errors=True)
+            write_polymesh(fvmesh, case)
+            write_case(case, flow.speed, flow.density, flow.viscosity, flow.intensity, flow.viscosity_ratio,
+                       args.iterations)
+            res = run_openfoam(case, half_dynamic)
+            of = summarise(res, half_dynamic) if "error" not in res else res
+        for code, r in (("millfoil", mf), ("OpenFOAM", of)):
+            if r is None or "error" in r:
+                print(f"| {name} | {code} | — ({why or r['error']}) | | | | | |")
+                continue
+            ratio = "" if code == "OpenFOAM" or of is None or "error" in of else f"{r['s_0_1'] / of['s_0_1']:.2f}"
+            print(f"| {name} | {code} | {r['iterations']} | {r['lift_0_5']} / {r['lift_0_1']} | "
+                  f"{r['ms_per_iteration']:.1f} | {r['s_0_5']:.1f} / {r['s_0_1']:.1f} | {r['c_l']:.4f} | {ratio} |",
+                  flush=True)
+
+
+if __name__ == "__main__":
+    main()
