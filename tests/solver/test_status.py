@@ -29,8 +29,8 @@ def test_drifting_solve_at_the_cap_is_not_converged(problem):
 @pytest.mark.slow
 def test_stalled_residuals_with_settled_forces_stop_as_converged(problem):
     reference = solve_steady(problem, cylinder_settings())
-    stalled = dataclasses.replace(cylinder_settings(), tol=1e-14, stall_tol=1e-4, classify_window=30,
-                                  classify_tol=1e-4, max_iter=1000)
+    stalled = dataclasses.replace(cylinder_settings(), tol=1e-14, stall_tol=1e-4, stop_window=30,
+                                  stop_tol=1e-4, max_iter=1000)
     res = solve_steady(problem, stalled)
     assert res.status == "converged" and res.iterations < 1000
     assert "scaled residuals < 0.0001" in res.message
