@@ -62,7 +62,9 @@ def test_zdt1_stores_every_evaluation_and_generation(tmp_path):
     assert [g.generation for g in generations] == list(range(6))
     assert all(len(g.members) == 12 for g in generations)
     hv = [g.hypervolume for g in generations]
-    assert all(b >= a - 1e-12 for a, b in zip(hv, hv[1:], strict=False))   # elitist: never worse
+    # (not monotone in general: crowding truncation of a first front larger than the population may drop
+    # a design that held hypervolume)
+    assert all(h is not None and h > 0 for h in hv) and hv[-1] > hv[0]
     assert outcome.front and all(r.feasible for r in outcome.front)
 
 
