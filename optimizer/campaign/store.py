@@ -232,7 +232,7 @@ class Store:
             self._db = sqlite3.connect(self.path, timeout=30.0)
             self._db.execute("PRAGMA journal_mode=WAL")
             # FULL: a finished evaluation survives a power cut of the driver's machine too, for one fsync
-            # (~10 ms) per evaluation, far below a solve; NORMAL: it survives the driver's death (SIGKILL).
+            # (about 1 ms here) per evaluation, far below a solve; NORMAL: it survives the driver's death (SIGKILL).
             if sync not in ("full", "normal"):
                 raise ValueError(f"sync must be 'full' or 'normal', got {sync!r}")
             self._db.execute(f"PRAGMA synchronous={sync.upper()}")
