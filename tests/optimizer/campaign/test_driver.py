@@ -50,7 +50,8 @@ class CountingRunner:
 
 
 def test_zdt1_stores_every_evaluation_and_generation(tmp_path):
-    config = zdt1_campaign(tmp_path)
+    # a reference far enough for the first generations' designs to count (the default 1.1 is for the front)
+    config = zdt1_campaign(tmp_path, "objectives=[{figure: f1, reference: 1.1}, {figure: f2, reference: 10}]")
     runner = CountingRunner()
     outcome = run_campaign(config, tmp_path / "run", runner=runner)
     assert outcome.state == "finished" and outcome.generations == 6
