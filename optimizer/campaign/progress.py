@@ -85,8 +85,6 @@ def _width() -> int:
 # -------------------------------------------------------------------------------------------- status
 def status_of(directory: str | Path) -> dict:
     """A JSON-able summary of the campaign in ``directory`` read from its store (read-only)."""
-    import yaml
-
     from optimizer.campaign.driver import saved_config
 
     with Store(Path(directory) / STORE_NAME, readonly=True) as store:
@@ -126,7 +124,8 @@ def status_of(directory: str | Path) -> dict:
         "cache_hits": sum(g.cache_hits for g in generations),
         "mean_evaluation_seconds": sum(seconds) / len(seconds) if seconds else None,
         "last_stored": max((r.finished for r in rows), default=None),
-        "mode": None if config.analytic else yaml.safe_load(yaml.safe_dump(config.blade.mode.value)),
+        "problem": (config.analytic.problem if config.analytic
+                    else f"{config.blade.mode.value} {config.blade.continuity.value}"),
     }
 
 
