@@ -90,18 +90,31 @@ class LinearSolverStats:
     residual: float = 0.0
 
 
-def _gauss_seidel(system: LinearSystem, tol: float = 0.1, maxiter: int = 3, state: dict | None = None):
-    """Symmetric Gauss–Seidel sweeps (pyamg's compiled kernel); ``maxiter`` symmetric sweeps."""
-    from pyamg.relaxation.relaxation import gauss_seidel
+def symmetric_gauss_seidel(A: sp.csr_matrix, x: np.ndarray, b: np.ndarray, sweeps: int = 1) -> None:
+    """``sweeps`` symmetric Gauss–Seidel sweeps (forward, then backward) on ``A x = b``, ``x`` updated in
+    place; ``A`` CSR float64, ``x`` and ``b`` contiguous float64.
 
-    x = system.x0.copy()
-    gauss_seidel(system.A, x, system.b, iterations=maxiter, sweep="symmetric")
+    pyamg's compiled kernel called directly: the same arithmetic as ``pyamg.relaxation.gauss_seidel(...,
+    sweep="symmetric")`` (bitwise), without its per-call argument checks, which cost as much as the sweep
+    itself on the small coarse levels of an AMG V-cycle (18 000 calls per 60 outer iterations)."""
+    from pyamg import amg_core
+
+    n = A.shape[0]
+    for _ in range(sweeps):
+        amg_core.gauss_seidel(A.indptr, A.indices, A.data, x, b, 0, n, 1)
+        amg_core.gauss_seidel(A.indptr, A.indices, A.data, x, b, n - 1, -1, -1)
+
+
+def _gauss_seidel(system: LinearSystem, tol: float = 0.1, maxiter: int = 3, state: dict | None = None):
+    """``maxiter`` symmetric Gauss–Seidel sweeps (:func:`symmetric_gauss_seidel`)."""
+    x = np.array(system.x0, dtype=float)
+    symmetric_gauss_seidel(system.A, x, np.ascontiguousarray(system.b, dtype=float), maxiter)
     return x, LinearSolverStats(maxiter, np.nan)
 
 
 #: AMG hierarchies by name (pyamg): ``f(A) -> multilevel solver``, the preconditioner of :func:`_amg_cg`.
 AMG_HIERARCHIES: dict[str, Callable] = {
-    "ruge_stuben": lambda A: _pyamg().ruge_stuben_solver(A, max_coarse=50),
+    "ruge_stuben": lambda A: _with_fast_smoothers(_pyamg().ruge_stuben_solver(A, max_coarse=50)),
     "smoothed_aggregation": lambda A: _pyamg().smoothed_aggregation_solver(A, max_coarse=50),
 }
 
@@ -139,6 +152,15 @@ def _amg_cg(system: LinearSystem, tol: float = 1e-2, maxiter: int = 100, state: 
                    callback=lambda _x: it.__setitem__(0, it[0] + 1))
     r = np.linalg.norm(system.b - system.A @ x) / (r0 + 1e-300)
     return x, LinearSolverStats(it[0], float(r))
+
+
+def _with_fast_smoothers(ml):
+    """``ml`` (Ruge–Stüben) with its pre- and post-smoothers (one symmetric Gauss–Seidel sweep, pyamg's
+    default there) replaced by :func:`symmetric_gauss_seidel` — the same arithmetic, without pyamg's per-call
+    checks (captured pressure system: 7.6 -> 5.8 ms per solve, identical solution)."""
+    for level in ml.levels[:-1]:
+        level.presmoother = level.postsmoother = symmetric_gauss_seidel
+    return ml
 
 
 def _seeded(fn, *args, **kwargs):
