@@ -11,13 +11,16 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+from importlib import resources
 from pathlib import Path
 
-from optimizer.cli.common import EXIT_FAILED, EXIT_INPUT, EXIT_OK, config_arguments
+from optimizer.cli.common import EXIT_FAILED, EXIT_INPUT, EXIT_OK
 from optimizer.config import ConfigError
 
 #: Exit status of an interrupted campaign (128 + SIGINT, as a shell reports Ctrl-C).
 EXIT_INTERRUPTED = 130
+#: The campaign ``run`` and ``check`` use without a CONFIG: a package file (package-data in pyproject.toml).
+QUICKSTART = "optimizer/campaign/quickstart.yaml"
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -25,18 +28,18 @@ def register(sub: argparse._SubParsersAction) -> None:
     run = sub.add_parser(
         "run",
         help="run an optimisation campaign (NSGA-II over the evaluation pipeline)",
-        description="Run the campaign of a YAML file: NSGA-II generation by generation, evaluations in "
-        "parallel (execution: section; default a local dask cluster, one worker per core), every result "
-        "stored at once in RUN/campaign.sqlite. Shows progress per generation and ends by printing where the "
-        "results are and the non-dominated designs. Exit status: 0 finished, 2 bad input, 4 failed, "
-        "130 interrupted (continue with `millfoil resume RUN`).",
+        description="Run the campaign of a YAML file (none given: the embedded quickstart campaign): NSGA-II "
+        "generation by generation, evaluations in parallel (execution: section; default a local dask cluster, "
+        "one worker per core), every result stored at once in RUN/campaign.sqlite. Shows progress per "
+        "generation and ends by printing where the results are and the non-dominated designs. Exit status: "
+        "0 finished, 2 bad input, 4 failed, 130 interrupted (continue with `millfoil resume RUN`).",
         epilog="Examples:\n"
-        "  millfoil run configs/quickstart.yaml\n"
+        "  millfoil run                # the embedded quickstart campaign, into runs/quickstart\n"
         "  millfoil run configs/paper/toolpath_g1.yaml --set execution.backend=slurm --out runs/tp_g1\n"
         "Configuration reference: docs/campaigns.md.",
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    config_arguments(run)
+    campaign_arguments(run)
     run.add_argument("--out", type=Path, metavar="RUN", help="run directory (default: the config's output.directory)")
     run.add_argument("--quiet", action="store_true", help="no progress display")
     run.set_defaults(run=run_run)
@@ -71,23 +74,33 @@ def register(sub: argparse._SubParsersAction) -> None:
     check = sub.add_parser(
         "check",
         help="validate a campaign file and print the resolved campaign",
-        description="Validate a campaign file without running it: every key and value (errors name the key, "
-        "the file and the line), the blade space, the mesh; print the design variables and their bounds, the "
-        "objectives and constraints, the budget and the resolved configuration (every default included).",
+        description="Validate a campaign file (none given: the embedded quickstart) without running it: every "
+        "key and value (errors name the key, the file and the line), the blade space, the mesh; print the "
+        "design variables and their bounds, the objectives and constraints, the budget and the resolved "
+        "configuration (every default included).",
     )
-    config_arguments(check)
+    campaign_arguments(check)
     check.set_defaults(run=run_check)
+
+
+def campaign_arguments(parser: argparse.ArgumentParser) -> None:
+    """The campaign file (optional: the embedded quickstart) and ``--set`` overrides of ``run`` and ``check``."""
+    parser.add_argument("config", nargs="?", type=Path, metavar="CONFIG",
+                        help=f"campaign YAML file (default: the embedded quickstart campaign, {QUICKSTART}: "
+                        "G1 design blades, coarse mesh, population 4, 3 generations, <= 10 min on 2 cores)")
+    parser.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
+                        help="override a dotted key (algorithm.population=8, execution.backend=slurm); "
+                        "repeatable")
 
 
 # ------------------------------------------------------------------------------------------ commands
 def run_check(args: argparse.Namespace) -> int:
-    from optimizer.campaign.config import load_campaign
     from optimizer.campaign.problem import make_problem
 
-    config = load_campaign(args.config, args.overrides)
+    config = load_campaign_argument(args)
     problem = make_problem(config)
     a = config.algorithm
-    print(f"campaign {args.config or '<defaults>'}: valid")
+    print(f"campaign {describe_source(args.config)}: valid")
     if config.analytic is None:
         print(f"  blade: {config.blade.mode.value} {config.blade.continuity.value}; mesh {config.mesh.level}, "
               f"half-height {config.mesh_spec().half_height:g} chords; solver {config.solver.model}")
@@ -113,11 +126,12 @@ def run_check(args: argparse.Namespace) -> int:
 
 
 def run_run(args: argparse.Namespace) -> int:
-    from optimizer.campaign.config import load_campaign
     from optimizer.campaign.driver import run_campaign
 
-    config = load_campaign(args.config, args.overrides)
+    config = load_campaign_argument(args)
     directory = args.out or config.output.directory
+    if args.config is None:
+        print(f"running {describe_source(None)}; run directory {directory}", flush=True)
     return _drive(lambda display: run_campaign(config, directory, progress=display, log=display.log),
                   args.quiet, directory)
 
@@ -150,6 +164,22 @@ def run_status(args: argparse.Namespace) -> int:
 
 
 # ------------------------------------------------------------------------------------------- helpers
+def load_campaign_argument(args: argparse.Namespace):
+    """The campaign of ``args.config`` with its ``--set`` overrides; without a file, the packaged quickstart
+    (read through importlib.resources, so an installed, non-editable package has it too)."""
+    from optimizer.campaign.config import load_campaign
+
+    if args.config is not None:
+        return load_campaign(args.config, args.overrides)
+    with resources.as_file(resources.files("optimizer.campaign") / "quickstart.yaml") as path:
+        return load_campaign(path, args.overrides)
+
+
+def describe_source(config: Path | None) -> str:
+    """How the headers name the campaign file: its path, or the embedded quickstart."""
+    return str(config) if config is not None else f"the embedded quickstart campaign ({QUICKSTART})"
+
+
 def _drive(start, quiet: bool, directory: Path) -> int:
     from optimizer.campaign.driver import CampaignError
     from optimizer.campaign.problem import EmptySpaceError

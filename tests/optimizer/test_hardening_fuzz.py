@@ -34,7 +34,7 @@ from hypothesis import strategies as st
 from optimizer.cli import main
 
 ROOT = Path(__file__).parents[2]
-QUICKSTART = str(ROOT / "configs" / "quickstart.yaml")
+QUICKSTART = str(ROOT / "optimizer" / "campaign" / "quickstart.yaml")
 #: Exit statuses a command may end with (docs/errors.md).
 DOCUMENTED = {0, 2, 3, 4}
 #: Wall-clock bound of one in-process case, s (the slowest accepted input, a 10 m tool-path blade, ~2 s).

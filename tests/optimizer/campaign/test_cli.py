@@ -23,11 +23,37 @@ def zdt1(tmp_path):
     return path
 
 
-def test_check_prints_the_resolved_campaign(capsys):
-    assert main(["check", "configs/quickstart.yaml"]) == 0
+def test_check_without_a_file_prints_the_embedded_quickstart(capsys):
+    assert main(["check"]) == 0
     out = capsys.readouterr().out
+    assert out.startswith("campaign the embedded quickstart campaign (optimizer/campaign/quickstart.yaml): valid")
     assert "design variables (11)" in out and "alpha" in out and "max |fy|, min c_max" in out
     assert "# resolved campaign" in out and "half_height: 1.0" in out
+    assert "population: 4" in out and "directory: runs/quickstart" in out
+
+
+def test_check_with_a_file_names_it(capsys):
+    assert main(["check", "optimizer/campaign/quickstart.yaml", "--set", "algorithm.population=6"]) == 0
+    out = capsys.readouterr().out
+    assert out.startswith("campaign optimizer/campaign/quickstart.yaml: valid") and "population: 6" in out
+
+
+def test_run_without_a_file_announces_the_quickstart(tmp_path, monkeypatch, capsys):
+    """No CONFIG: the header says the embedded quickstart runs (the driver is replaced here: nothing runs)."""
+    import optimizer.campaign.driver as driver
+
+    seen = {}
+
+    def fake_run(config, directory, **_):
+        seen.update(config=config, directory=directory)
+        raise driver.CampaignError("stopped by the test")
+
+    monkeypatch.setattr(driver, "run_campaign", fake_run)
+    monkeypatch.chdir(tmp_path)
+    assert main(["run"]) == 2
+    out = capsys.readouterr().out
+    assert "running the embedded quickstart campaign (optimizer/campaign/quickstart.yaml)" in out
+    assert str(seen["directory"]) == "runs/quickstart" and seen["config"].algorithm.population == 4
 
 
 def test_check_bad_config_exits_2_with_file_and_line(tmp_path, capsys):

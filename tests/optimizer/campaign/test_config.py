@@ -133,8 +133,8 @@ def test_resolved_campaign_reads_back_identically(tmp_path):
 def test_every_shipped_campaign_config_loads():
     from pathlib import Path
 
-    root = Path(__file__).resolve().parents[3] / "configs"
-    files = [root / "quickstart.yaml", *sorted((root / "paper").glob("*.yaml"))]
+    root = Path(__file__).resolve().parents[3]
+    files = [root / "optimizer" / "campaign" / "quickstart.yaml", *sorted((root / "configs" / "paper").glob("*.yaml"))]
     present = [f for f in files if f.exists()]
     assert present, "no campaign configs shipped"
     for f in present:

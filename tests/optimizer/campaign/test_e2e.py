@@ -1,6 +1,6 @@
 """End to end: a real CFD campaign (coarse mesh, k-omega SST, population 4, 2 generations) on a dask
-LocalCluster with 2 worker processes, through ``millfoil run`` — the quickstart campaign cut to two
-generations. Several minutes: marked slow."""
+LocalCluster with 2 worker processes, through ``millfoil run`` without a CONFIG — the embedded quickstart
+campaign cut to two generations. Several minutes: marked slow."""
 
 from __future__ import annotations
 
@@ -20,7 +20,7 @@ ROOT = Path(__file__).resolve().parents[3]
 
 def test_tiny_cfd_campaign_on_a_local_cluster(tmp_path):
     run = tmp_path / "run"
-    cmd = [sys.executable, "-m", "optimizer.cli", "run", str(ROOT / "configs" / "quickstart.yaml"), "--out", str(run),
+    cmd = [sys.executable, "-m", "optimizer.cli", "run", "--out", str(run),       # no CONFIG: the quickstart
            "--set", "algorithm.generations=2", "--set", "execution.backend=local", "--set", "execution.workers=2"]
     done = subprocess.run(cmd, capture_output=True, text=True, timeout=3600)
     assert done.returncode == 0, done.stderr[-3000:]
