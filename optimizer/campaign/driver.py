@@ -34,6 +34,7 @@ from pathlib import Path
 import numpy as np
 
 from optimizer.campaign.config import CampaignConfig
+from optimizer.campaign.fields import prune_fields, with_fields
 from optimizer.campaign.problem import Assessment, CampaignProblem, Feasibility, initial_population, make_problem
 from optimizer.campaign.store import STORE_NAME, EvaluationRow, GenerationRow, Store, now
 
@@ -293,7 +294,7 @@ class _Loop:
                 self._note(known[k])
                 state.infeasible += 1
                 continue
-            tasks.append(_task(k, self.problem.payload(x), g))
+            tasks.append(_task(k, with_fields(self.problem.payload(x), self.store.path.parent, k), g))
             submitted[k] = (x, now())
         state.feasible_share = _feasible_share(keys, known, submitted)
         state.submitted = len(tasks)
@@ -350,6 +351,7 @@ class _Loop:
             crowding=[_maybe(float, c) for c in pop.get("crowding")], offspring=[r.key for r in rows],
             feasible_offspring=counts["feasible"], feasible_share=counts["feasible"] / len(rows) if rows else None,
             cache_hits=counts["cached"], hypervolume=hv, rng_state=algorithm.random_state.bit_generator.state))
+        prune_fields(self.store)      # fields files are kept for the front's designs only
         state = GenerationProgress(g, self.algorithm_config.generations, total=len(rows), cached=counts["cached"],
                                    infeasible=len(rows) - counts["feasible"], finished=True,
                                    workers=getattr(self.runner, "workers", 0) or 0, **self._summary(),

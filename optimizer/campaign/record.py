@@ -8,8 +8,9 @@ blade).
   evaluation pipeline (:func:`optimizer.pipeline.evaluate`) on that blade;
 * ``{"kind": "zdt1", "x": [...], "delay": s}`` — the analytic test problem;
 
-plus the runner's ``deadline_s`` (Unix time after which the runner has given up: the solve stops at its
-next iteration and the record says ``timeout``).
+plus ``fields`` (optional, blades only: the absolute path of the design's fields file, on a file system
+the worker shares with the driver) and the runner's ``deadline_s`` (Unix time after which the runner has
+given up: the solve stops at its next iteration and the record says ``timeout``).
 
 The record (the driver stores it and judges it with :meth:`CampaignProblem.assess`)::
 
@@ -23,6 +24,9 @@ The record (the driver stores it and judges it with :meth:`CampaignProblem.asses
     monitors      {monitor: {"mean", "amplitude", "drift", "period", "status"}} over the solve's window
     missing       {figure: reason} for figures without a value
     cells, iterations, seconds ({stage: wall s} plus "total" and "cpu", the worker process's CPU time)
+    fields        where the payload names a fields file (``payload["fields"]``, added by the driver) and the
+                  design was solved: the file written (:mod:`optimizer.campaign.fields`), or None when
+                  writing failed (the reason then ends with "fields not kept (...)"; the evaluation counts)
 
 BLAS/OpenMP threads are pinned to one in the worker: evaluations are parallel across processes.
 """
@@ -105,9 +109,24 @@ def evaluate_blade_payload(payload: dict) -> dict:
     record = record_of(ev, config)
     if passed:
         record.update(status="timeout", reason=f"stopped at the runner's deadline; {record['reason']}")
+    elif record["status"] == "solved" and payload.get("fields"):
+        keep_fields(ev, config, payload["fields"], record)
     record["seconds"]["total"] = time.perf_counter() - t0
     record["seconds"]["cpu"] = time.process_time() - cpu0     # the worker's CPU time: what load does not inflate
     return record
+
+
+def keep_fields(ev, config, path: str, record: dict) -> None:
+    """Write the fields file of a solved evaluation at ``path`` (:func:`optimizer.campaign.fields.write_fields`)
+    and say so in ``record["fields"]`` (the path, or None). A failure (a directory the worker cannot reach,
+    a full disk) does not fail the evaluation: its reason says that the fields were not kept."""
+    from optimizer.campaign.fields import write_fields
+
+    try:
+        record["fields"] = str(write_fields(ev, path, c0=config.flow.speed))
+    except Exception as exc:     # the figures are what the campaign needs; the fields are for the report
+        record["fields"] = None
+        record["reason"] = f"{record['reason']}; fields not kept ({type(exc).__name__}: {exc})"
 
 
 def record_of(ev, config) -> dict:

@@ -36,6 +36,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 #: File name of the store in the run directory.
 STORE_NAME = "campaign.sqlite"
 #: Schema version written in ``PRAGMA user_version``; bump on any change of the tables.
@@ -330,6 +332,15 @@ class Store:
         for row in rows:
             yield _evaluation(row)
 
+    def front(self) -> list[EvaluationRow]:
+        """The non-dominated designs among every stored feasible accepted design (``minimised``: smaller
+        is better in each), sorted by the first minimised objective; designs with equal vectors are all kept."""
+        rows = [r for r in self.evaluations() if r.feasible]
+        if not rows:
+            return []
+        keep = non_dominated(np.array([r.minimised for r in rows], float))
+        return sorted((r for r, k in zip(rows, keep, strict=True) if k), key=lambda r: r.minimised[0])
+
     def count_by_status(self, generation: int | None = None) -> dict[str, int]:
         where, args = ("WHERE generation=?", (generation,)) if generation is not None else ("", ())
         rows = self._db.execute(f"SELECT status, COUNT(*) FROM evaluations {where} GROUP BY status", args)
@@ -351,6 +362,18 @@ class Store:
     def last_generation(self) -> GenerationRow | None:
         row = self._db.execute("SELECT * FROM generations ORDER BY generation DESC LIMIT 1").fetchone()
         return None if row is None else _generation(row)
+
+
+def non_dominated(F: np.ndarray, chunk: int = 256) -> np.ndarray:
+    """``(n,)`` mask of the rows of ``F (n, m)`` that no other row dominates (≤ in every column, < in one);
+    minimisation. Compared in chunks of rows: memory ``chunk × n × m``."""
+    F = np.asarray(F, float)
+    keep = np.ones(len(F), bool)
+    for i in range(0, len(F), chunk):
+        a = F[i:i + chunk, None, :]
+        dominated = np.all(F[None] <= a, axis=2) & np.any(F[None] < a, axis=2)
+        keep[i:i + chunk] = ~dominated.any(axis=1)
+    return keep
 
 
 def _evaluation(r: sqlite3.Row) -> EvaluationRow:
