@@ -127,9 +127,12 @@ def run_check(args: argparse.Namespace) -> int:
 
 def run_run(args: argparse.Namespace) -> int:
     from optimizer.campaign.driver import run_campaign
+    from optimizer.saving import check_output_directory
 
     config = load_campaign_argument(args)
     directory = args.out or config.output.directory
+    # Refused before any cluster starts (exit 2, naming the option): a file in the way, /proc, read-only.
+    check_output_directory(directory, "--out" if args.out else "output.directory", files=())
     if args.config is None:
         print(f"running {describe_source(None)}; run directory {directory}", flush=True)
     return _drive(lambda display: run_campaign(config, directory, progress=display, log=display.log),

@@ -169,6 +169,9 @@ OUTPUTS = [
     (["evaluate", "--save", "/proc/run"], "--save"),
     (["evaluate", "--save", "c.yaml"], "--save"),
     (["evaluate", "--save", "c.yaml/run"], "--save"),
+    (["run", "--set", "output.directory=/proc/x"], "output.directory"),    # the embedded quickstart
+    (["run", "--out", "c.yaml"], "--out"),                                  # an existing file
+    (["run", "--out", "c.yaml/run"], "--out"),
 ]
 
 

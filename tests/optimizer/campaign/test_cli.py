@@ -114,3 +114,17 @@ def test_progress_display_live_on_a_terminal_and_lines_elsewhere():
     display(finished)
     text = tty.getvalue()
     assert text.count("\r\033[K") == 2 and text.endswith("\n")      # the live line is redrawn in place
+
+
+def test_run_refuses_an_unusable_run_directory_before_starting(tmp_path, zdt1, capsys):
+    (tmp_path / "file").write_text("")
+    assert main(["run", str(zdt1), "--out", str(tmp_path / "file")]) == 2
+    assert "--out" in capsys.readouterr().err
+    assert main(["run", str(zdt1), "--set", "output.directory=/proc/x"]) == 2
+    assert "output.directory /proc/x" in capsys.readouterr().err
+
+
+def test_run_creates_a_missing_chain_of_directories(tmp_path, zdt1):
+    run = tmp_path / "a" / "b" / "run"
+    assert main(["run", str(zdt1), "--out", str(run), "--quiet"]) == 0
+    assert (run / "campaign.sqlite").is_file()
