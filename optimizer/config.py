@@ -16,6 +16,7 @@ from __future__ import annotations
 import copy
 import dataclasses
 import math
+import re
 import reprlib
 import warnings
 from collections.abc import Iterable, Mapping, Sequence
@@ -413,7 +414,7 @@ class Config(_Frozen):
         try:
             config = cls.model_validate(data)
         except ValidationError as exc:
-            raise ConfigError(_explain(exc, cls, source)) from None
+            raise ConfigError(explain(exc, cls, source)) from None
         blade_chord = (lambda: config.check_mesh_for(config.blade.blade_spec().values["L"])) if blade_values else None
         for section, check in (("blade", config.blade.blade_spec if blade_values else None),
                                ("blade", config.blade.space), ("mesh", config.mesh_spec), ("mesh", blade_chord)):
@@ -525,15 +526,18 @@ def set_values(raw: Mapping[str, Any], values: Iterable[tuple[str, Any]], schema
     return result
 
 
-def _explain(exc: ValidationError, schema: type[Config], source: Source | None = None) -> str:
+def explain(exc: ValidationError, schema: type[BaseModel], source: Source | None = None) -> str:
     """One line per problem, naming the key and what it allows (and ``FILE:LINE:`` with a ``source``);
-    the input is shown shortened (:func:`shorten`)."""
+    the input is shown shortened (:func:`shorten`). Used for every schema, campaigns included."""
     lines = []
     for err in exc.errors():
-        loc = tuple(err["loc"])
+        loc = tuple(p for p in err["loc"] if not (isinstance(p, str) and "[" in p))   # drop validator tags
         error = (err.get("ctx") or {}).get("error")
-        if isinstance(error, _BooleanForNumber):
-            loc = (*loc, *error.path)
+        loc = (*loc, *getattr(error, "path", ()))             # where below the field (e.g. a boolean)
+        msg = err["msg"].removeprefix("Value error, ")
+        named = re.search(r"unknown key '([^']+)'", msg) if err["type"] == "value_error" else None
+        if named:                                             # a section that checks its own keys
+            loc = (*loc, named.group(1))
         where = ".".join(str(p) for p in loc)
         at = f"{source.where(loc)}: " if source is not None else ""
         if err["type"] == "extra_forbidden":
@@ -548,7 +552,6 @@ def _explain(exc: ValidationError, schema: type[Config], source: Source | None =
         elif (text := range_error(err, loc, schema)) is not None:
             lines.append(f"{at}{text}")
         else:
-            msg = err["msg"].removeprefix("Value error, ")
             lines.append(f"{at}'{where}': {msg} (got {shorten(err['input'])})")
     return "; ".join(lines)
 
@@ -602,10 +605,18 @@ def _field_at(schema: type[BaseModel], loc: Sequence[Any]) -> Any:
 
 
 def _allowed_keys(schema: type[BaseModel], loc: Sequence[Any]) -> list[str]:
+    """The keys allowed at ``loc`` in ``schema`` (following sections, lists and optional sections)."""
     model = schema
     for part in loc:
+        if isinstance(part, int):
+            continue
         field = model.model_fields.get(str(part))
-        if field is None or not isinstance(field.annotation, type) or not issubclass(field.annotation, BaseModel):
+        if field is None:
             break
-        model = field.annotation
+        candidates = [field.annotation, *get_args(field.annotation)]
+        candidates += [a for c in list(candidates) for a in get_args(c)]
+        nested = [c for c in candidates if isinstance(c, type) and issubclass(c, BaseModel)]
+        if not nested:
+            break
+        model = nested[0]
     return list(model.model_fields)

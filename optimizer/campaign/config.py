@@ -46,10 +46,9 @@ from optimizer.config import (
     ConfigError,
     _Frozen,
     apply_overrides,
+    explain,
     load_config,
-    range_error,
     set_values,
-    shorten,
 )
 from optimizer.yamlsource import Source
 
@@ -217,7 +216,7 @@ class CampaignConfig(Config):
         try:
             config = cls.model_validate(data)
         except ValidationError as exc:
-            raise ConfigError(explain(exc, source, cls)) from None
+            raise ConfigError(explain(exc, cls, source)) from None
         if blade_values:
             config.blade.blade_spec()
         return check_campaign(config, source)
@@ -260,52 +259,3 @@ def _located(exc: ConfigError, default: tuple, config: CampaignConfig) -> tuple:
         name = m.group(1)
         return ("blade", "fixed", name) if name in config.blade.fixed else ("blade", "bounds", name)
     return default
-
-
-def explain(exc: ValidationError, source: Any, schema: type) -> str:
-    """One line per problem: ``FILE:LINE: the key, what is wrong, what is allowed``."""
-    lines = []
-    for err in exc.errors():
-        loc = tuple(p for p in err["loc"] if not (isinstance(p, str) and "[" in p))   # drop validator tags
-        loc = (*loc, *getattr((err.get("ctx") or {}).get("error"), "path", ()))    # where below the field
-        where = ".".join(str(p) for p in loc)
-        at = source.where(loc)
-        if err["type"] == "extra_forbidden":
-            allowed = _allowed_keys(schema, loc[:-1])
-            lines.append(f"{at}: unknown key '{where}'; allowed: {', '.join(allowed)}")
-        elif err["type"] in ("enum", "literal_error"):
-            lines.append(f"{at}: '{where}' = {shorten(err['input'])} is not allowed; allowed: {err['ctx']['expected']}")
-        elif err["type"] == "missing":
-            lines.append(f"{at}: '{where}' is required")
-        elif (text := range_error(err, loc, schema)) is not None:    # the range and why (optimizer.config)
-            lines.append(f"{at}: {text}")
-        else:
-            msg = err["msg"].removeprefix("Value error, ")
-            named = re.search(r"unknown key '([^']+)'", msg)     # a section that checks its own keys
-            if named:
-                loc = (*loc, named.group(1))
-                where, at = ".".join(str(p) for p in loc), source.where(loc)
-            lines.append(f"{at}: '{where}': {msg} (got {shorten(err['input'])})")
-    return "; ".join(lines)
-
-
-def _allowed_keys(schema: type, loc: Sequence[Any]) -> list[str]:
-    """The keys allowed at ``loc`` in ``schema`` (following sections, lists and optional sections)."""
-    from typing import get_args
-
-    from pydantic import BaseModel
-
-    model = schema
-    for part in loc:
-        if isinstance(part, int):
-            continue
-        field = model.model_fields.get(str(part))
-        if field is None:
-            break
-        candidates = [field.annotation, *get_args(field.annotation)]
-        candidates += [a for c in list(candidates) for a in get_args(c)]
-        nested = [c for c in candidates if isinstance(c, type) and issubclass(c, BaseModel)]
-        if not nested:
-            break
-        model = nested[0]
-    return list(model.model_fields)
