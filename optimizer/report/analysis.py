@@ -1,6 +1,7 @@
 """What a report computes from a run's store: points in the paper's planes, the front, the Table 7 summary,
-the gallery's designs and the campaign's health per generation. Pure functions of a :class:`Run`: no CFD,
-no geometry (the gallery rebuilds its few blades in :mod:`optimizer.report.figures`).
+the gallery's designs, the designs whose fields are kept and the campaign's health per generation. Pure
+functions of a :class:`Run` (and of which fields files exist): no CFD, no geometry (the gallery rebuilds its
+few blades in :mod:`optimizer.report.figures`).
 
 The paper's planes (Vessaz et al. 2013, Fig. 9–11, Eq. 23): |F_Y| (N, the force on the span 0.04 L: the
 ``fy_span`` figure) against C_max (m/s), and C_L against |C_p,min|. An ``oscillating`` design's values are
@@ -13,6 +14,7 @@ from __future__ import annotations
 
 from collections import Counter
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
@@ -130,6 +132,28 @@ def gallery(pts: list[Point], count: int = 6) -> list[Point]:
         return f
     index = np.unique(np.round(np.linspace(0, len(f) - 1, count)).astype(int))
     return [f[i] for i in index]
+
+
+def fields_designs(run: Run, pts: list[Point], count: int = 3) -> tuple[list[tuple[Point, Path]], list[Point]]:
+    """The designs whose fields the report draws: up to ``count`` of the |F_Y|–C_max front's designs that have
+    a fields file (``RUN/fields/<key>.npz``, :mod:`optimizer.campaign.fields`), the two ends and the middle
+    in front order, with their files; and the front's designs without a file (not kept). Where no design
+    of this front has a file (a campaign with other objectives), the feasible designs that have one,
+    by C_max, take its place."""
+    from optimizer.campaign.fields import fields_path
+
+    f = front(pts)
+    kept = [(p, fields_path(run.directory, p.design.key)) for p in f]
+    kept = [(p, path) for p, path in kept if path.is_file()]
+    if not kept:
+        others = sorted((p for p in pts if p.feasible), key=lambda p: p.cmax)
+        kept = [(p, path) for p in others if (path := fields_path(run.directory, p.design.key)).is_file()]
+    if len(kept) > count:
+        index = np.unique(np.round(np.linspace(0, len(kept) - 1, count)).astype(int))
+        kept = [kept[i] for i in index]
+    have = {p.design.key for p, _ in kept}
+    missing = [p for p in f if p.design.key not in have and not fields_path(run.directory, p.design.key).is_file()]
+    return kept, missing
 
 
 @dataclass(frozen=True)

@@ -1,12 +1,14 @@
 """The report's figures, drawn with matplotlib (Agg) into SVG files with text as paths (no fonts needed).
 
 Pareto planes (Fig. 9–11 style), the geometry gallery (Fig. 12–13: blades rebuilt from their stored
-parameters with :mod:`geometry`, milliseconds each) and the campaign's health per generation.
+parameters with :mod:`geometry`, milliseconds each), the kept fields of a few front designs (velocity
+magnitude, C_p, c_f, y+) and the campaign's health per generation.
 """
 
 from __future__ import annotations
 
 from pathlib import Path
+from types import SimpleNamespace
 
 import matplotlib
 
@@ -14,6 +16,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
+from optimizer.campaign.fields import outline  # noqa: E402
 from optimizer.report.analysis import Health, Point, front  # noqa: E402
 from optimizer.report.run import Run  # noqa: E402
 
@@ -154,3 +157,57 @@ def health_figure(h: Health, path: Path) -> Path:
     fig.savefig(path)
     plt.close(fig)
     return path
+
+
+def fields_figure(chosen: list[tuple[Point, dict]], path: Path) -> Path:
+    """One row per design of ``chosen`` (point, arrays of its fields file: :func:`optimizer.campaign.fields.
+    read_fields`): the velocity magnitude |U|/C0 around the blade (the blade outline through its wall faces),
+    C_p (axis reversed, suction peak up) and c_f along the suction and pressure sides, and the wall cells' y+,
+    each against x/L from the leading edge."""
+    n = max(len(chosen), 1)
+    fig, axes = plt.subplots(n, 4, figsize=(12.5, 2.9 * n), squeeze=False,
+                             gridspec_kw={"width_ratios": [1.6, 1, 1, 1]})
+    for row, (p, data) in zip(axes, chosen, strict=False):
+        _speed_panel(row[0], p, data)
+        _wall_panels(row[1:], data)
+    fig.tight_layout()
+    fig.savefig(path)
+    plt.close(fig)
+    return path
+
+
+def _speed_panel(ax, p: Point, data: dict) -> None:
+    c0 = data["c0"] if np.isfinite(data["c0"]) else 1.0
+    label = "|U|/C0 [-]" if np.isfinite(data["c0"]) else "|U| [m/s]"
+    gx, gy = data["grid_x"] * 1e3, data["grid_y"] * 1e3
+    image = ax.imshow(np.ma.masked_invalid(data["speed"] / c0), origin="lower", cmap="viridis",
+                      extent=(gx[0], gx[-1], gy[0], gy[-1]), interpolation="nearest")
+    ring = outline(SimpleNamespace(**data)) * 1e3
+    ax.fill(ring[:, 0], ring[:, 1], color="0.85", zorder=2)
+    ax.plot(*np.vstack([ring, ring[:1]]).T, "k-", lw=0.6, zorder=3)
+    ax.set_aspect("equal")
+    ax.set_xlabel("x [mm]")
+    ax.set_ylabel("y [mm]")
+    ax.set_title(f"#{p.design.number}: |F_Y| {p.fy:.1f} N, C_max {p.cmax:.2f} m/s", fontsize=8)
+    plt.colorbar(image, ax=ax, label=label, shrink=0.9)
+
+
+def _wall_panels(axes, data: dict) -> None:
+    side = data["side"]
+    sides = [s for s in ("suction", "pressure") if np.any(side == s)]
+    k = np.isin(side, sides)
+    x0, x1 = float(data["x"][k].min()), float(data["x"][k].max())
+    for ax, name, label in zip(axes, ("cp", "cf", "y_plus"), ("C_p [-]", "c_f [-]", "y+ of the wall cell [-]"),
+                               strict=True):
+        for j, s in enumerate(sides):
+            m = np.flatnonzero(side == s)
+            m = m[np.argsort(data["s"][m])]
+            ax.plot((data["x"][m] - x0) / (x1 - x0), data[name][m], "-", color=f"C{j}", lw=0.9, label=s)
+        ax.set_xlabel("x/L from the leading edge [-]")
+        ax.set_ylabel(label)
+        ax.grid(alpha=0.3)
+        if name == "cp":
+            ax.invert_yaxis()
+            ax.legend(fontsize=7)
+        if name == "y_plus" and not np.isfinite(data[name][k]).any():
+            ax.text(0.5, 0.5, "not known", transform=ax.transAxes, ha="center", va="center")

@@ -12,11 +12,13 @@ import html
 import os
 import platform
 import sys
+import zipfile
 from importlib import metadata
 from pathlib import Path
 
-from optimizer.report.analysis import TABLE7_COLUMNS, gallery, health, paper_row, points, table7
-from optimizer.report.figures import gallery_figure, health_figure, pareto_figure
+from optimizer.campaign.fields import read_fields
+from optimizer.report.analysis import TABLE7_COLUMNS, fields_designs, gallery, health, paper_row, points, table7
+from optimizer.report.figures import fields_figure, gallery_figure, health_figure, pareto_figure
 from optimizer.report.run import Run
 
 #: Packages whose versions the provenance section lists.
@@ -44,7 +46,7 @@ def write_report(runs: list[Run], out: Path) -> Path:
     pairs = list(zip(runs, pts, strict=True))
     pareto_figure(pairs, "cmax", "fy", out / "pareto_fy_cmax.svg")
     pareto_figure(pairs, "cpmin", "cl", out / "pareto_cl_cpmin.svg")
-    sections = [_fronts(runs, pts), _summary(runs, pts, out), _gallery(runs, pts, out), _fields(),
+    sections = [_fronts(runs, pts), _summary(runs, pts, out), _gallery(runs, pts, out), _fields(runs, pts, out),
                 _health(runs, out), _provenance(runs)]
     _tables(runs, pts, out)
     title = "millfoil report: " + ", ".join(r.name for r in runs)
@@ -123,11 +125,38 @@ def _gallery(runs: list[Run], pts, out: Path) -> str:
     return "\n".join(parts)
 
 
-def _fields() -> str:
-    return ("<h2 id=\"fields\">Flow fields of selected designs</h2>\n<p>Not kept: the campaign store holds the "
-            "figures and monitors of each evaluation, not its fields (velocity, C_p and c_f along the sides, y+). "
-            "The report does not solve designs again to get them. Re-run a design with <code>millfoil evaluate"
-            "</code> to see its fields.</p>")
+def _fields(runs: list[Run], pts, out: Path) -> str:
+    parts = ["<h2 id=\"fields\">Flow fields of selected designs</h2>\n<p class=\"note\">Up to three designs of "
+             "each run's |F_Y|–C_max front (its ends and middle) whose fields the campaign kept (<code>RUN/fields/"
+             "</code>: the wall distribution and |U| sampled around the blade, written by the worker and kept "
+             "for the front's designs only): velocity magnitude near the blade, C_p (axis reversed) and c_f "
+             "along the suction and pressure sides, y+ of the wall cells. The report does not solve designs "
+             "again: a design without a file is listed as not kept (re-run it with <code>millfoil evaluate</code>)."
+             "</p>"]
+    for k, (r, p) in enumerate(zip(runs, pts, strict=True)):
+        parts.append(f"<h3>{e(r.name)}</h3>")
+        kept, missing = fields_designs(r, p)
+        chosen, unreadable = [], []
+        for point, path in kept:
+            try:
+                chosen.append((point, read_fields(path)))
+            except (OSError, ValueError, KeyError, zipfile.BadZipFile) as exc:      # a file being replaced, or damaged
+                unreadable.append(f"#{point.design.number} ({type(exc).__name__})")
+        if chosen:
+            fields_figure(chosen, out / f"fields_{k}.svg")
+            parts.append(_img(f"fields_{k}.svg", f"fields of designs of {r.name}"))
+        notes = []
+        if missing:
+            notes.append("Not kept for front design(s) " + ", ".join(f"#{x.design.number}" for x in missing)
+                         + " (no fields file: written before the campaign kept fields, or not written by the worker"
+                         " — its reason says why).")
+        if unreadable:
+            notes.append("Unreadable fields file(s): " + ", ".join(unreadable) + ".")
+        if not chosen and not missing:
+            notes.append("Not kept: no design of this run has a fields file yet.")
+        if notes:
+            parts.append(f"<p class=\"note\">{e(' '.join(notes))}</p>")
+    return "\n".join(parts)
 
 
 def _health(runs: list[Run], out: Path) -> str:

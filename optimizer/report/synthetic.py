@@ -13,11 +13,13 @@ from __future__ import annotations
 import hashlib
 import math
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 
 from geometry.examples import TABLE4_C2_DESIGN
 from optimizer.campaign.config import CampaignConfig
+from optimizer.campaign.fields import fields_path, write_fields
 from optimizer.campaign.store import STORE_NAME, EvaluationRow, GenerationRow, Store
 
 #: Table 5 of the paper (tool-path G1, R = 5 mm; d_s4 = d_p4 = 2 mm machined, see configs/examples).
@@ -28,11 +30,12 @@ _FIXED = ("L", "R", "d_s4", "d_p4")
 
 
 def synthetic_run(directory: str | Path, *, mode: str = "toolpath", population: int = 6, generations: int = 4,
-                  seed: int = 0, finished: bool = True) -> Path:
+                  seed: int = 0, finished: bool = True, fields: int = 0) -> Path:
     """Write a made-up campaign of ``generations`` × ``population`` designs into ``directory``; returns it.
 
     ``mode``: ``toolpath`` (Table 5 G1 family) or ``design`` (Table 4 C2 family). ``finished``: the campaign
-    state (else ``running``, as a report of a running campaign sees it).
+    state (else ``running``, as a report of a running campaign sees it). ``fields``: write made-up fields
+    files (:func:`synthetic_fields`) for that many designs of the front (the others have none).
     """
     directory = Path(directory)
     directory.mkdir(parents=True, exist_ok=True)
@@ -60,7 +63,54 @@ def synthetic_run(directory: str | Path, *, mode: str = "toolpath", population: 
             store.add_generation(_generation(store, g, members, keys))
         if finished:
             store.end_campaign("finished", "synthetic campaign: made-up figures for tests and demonstrations")
+        front = store.front()
+    for row in front[:fields]:
+        synthetic_fields(directory, row, mode, continuity)
     return directory
+
+
+def synthetic_fields(directory: Path, row: EvaluationRow, mode: str, continuity: str, c0: float = 10.0) -> Path:
+    """Write a made-up fields file for ``row`` through the campaign's writer
+    (:func:`optimizer.campaign.fields.write_fields`): the real blade outline (rebuilt from its parameters)
+    with **invented** wall values and an invented velocity field (a uniform stream of ``c0`` m/s with a bump
+    near the blade). Nothing in it is a result."""
+    from geometry import BladeSpec, build_profile
+
+    profile = build_profile(BladeSpec.from_values(mode, continuity, row.parameters))
+    return write_fields(synthetic_evaluation(profile.points, c0), fields_path(directory, row.key), c0=c0)
+
+
+def synthetic_evaluation(points: np.ndarray, c0: float = 10.0) -> SimpleNamespace:
+    """An object shaped like :class:`optimizer.evaluation.Evaluation` for the fields writer: ``wall`` (a
+    :class:`~optimizer.evaluation.WallDistribution` on the closed outline ``points (n, 2)``, m, split at its
+    leftmost and rightmost points, the upper chain as suction side) and ``artifacts.flow`` with a ``sample``
+    method. The values are invented (smooth shapes in plausible ranges)."""
+    from optimizer.evaluation import WallDistribution
+
+    le, te = int(np.argmin(points[:, 0])), int(np.argmax(points[:, 0]))
+    a, b = sorted((le, te))
+    chains = [points[a:b + 1], np.vstack([points[b:], points[:a + 1]])]
+    chains = [c if np.allclose(c[0], points[le]) else c[::-1] for c in chains]     # both from the leading edge
+    upper = int(np.argmax([c[:, 1].mean() for c in chains]))
+    parts = []
+    for side, chain in (("suction", chains[upper]), ("pressure", chains[1 - upper])):
+        mid = 0.5 * (chain[1:] + chain[:-1])
+        length = np.linalg.norm(np.diff(chain, axis=0), axis=1)
+        s = np.cumsum(length) - 0.5 * length
+        t = s / s[-1]
+        sign = 1.0 if side == "suction" else -0.4
+        cp = 1.0 - (1.0 + sign * 0.6 * np.sqrt(t) * (1.0 - t) * 3.0) ** 2 * (1.0 - np.exp(-60.0 * t))
+        cf = 0.004 / np.sqrt(t + 0.02) * (1.0 - 0.8 * t if side == "suction" else 1.0)
+        parts.append((np.full(s.size, side), s, mid, cp, cf, 20.0 + 40.0 * np.sqrt(t), length))
+    side, s, mid, cp, cf, yp, length = (np.concatenate(v) for v in zip(*parts, strict=True))
+    wall = WallDistribution(side=side, s=s, x=mid[:, 0], y=mid[:, 1], cp=cp, cf=cf, y_plus=yp, length=length)
+    centre, chord = points.mean(axis=0), float(np.ptp(points[:, 0]))
+
+    def sample(xy: np.ndarray, which: str = "u") -> np.ndarray:
+        r2 = ((np.asarray(xy) - centre) ** 2).sum(axis=1) / (0.4 * chord) ** 2
+        return np.column_stack([c0 * (1.0 + 0.3 * np.exp(-r2)), 0.1 * c0 * np.exp(-r2)])
+
+    return SimpleNamespace(wall=wall, artifacts=SimpleNamespace(flow=SimpleNamespace(sample=sample)))
 
 
 def _row(key: str, generation: int, names: list[str], values: dict, rng: np.random.Generator,
