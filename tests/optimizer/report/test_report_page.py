@@ -24,7 +24,7 @@ EVIL = '<img src=x onerror="alert(1)">&'
 @pytest.fixture(scope="module")
 def runs(tmp_path_factory):
     base = tmp_path_factory.mktemp("runs")
-    a = synthetic_run(base / "toolpath_g1", population=6, generations=3, seed=1)
+    a = synthetic_run(base / "toolpath_g1", population=6, generations=3, seed=1, fields=2)
     b = synthetic_run(base / EVIL, population=5, generations=2, seed=2, finished=False)
     return a, b
 
@@ -109,6 +109,32 @@ def test_gallery_designs_lie_on_the_front(runs):
     assert 1 <= len(chosen) <= 6
     on_front = {p.design.number for p in front(pts)}
     assert {p.design.number for p in chosen} <= on_front
+
+
+def test_fields_of_front_designs_with_files(runs):
+    """The fields section draws the front's designs that have a fields file (the synthetic run writes two)
+    and lists the front's other designs as not kept; a run without files has nothing to draw."""
+    from optimizer.campaign.fields import fields_path
+    from optimizer.report.analysis import fields_designs, front, points
+
+    run = load_run(runs[0])
+    pts = points(run)
+    kept, missing = fields_designs(run, pts)
+    on_front = [p.design.key for p in front(pts)]
+    assert len(kept) == 2 and all(path.is_file() for _, path in kept)
+    assert {p.design.key for p, _ in kept} | {p.design.key for p in missing} == set(on_front)
+    assert all(not fields_path(run.directory, p.design.key).exists() for p in missing)
+    other = load_run(runs[1])
+    kept, missing = fields_designs(other, points(other))
+    assert kept == [] and len(missing) == len(front(points(other)))
+
+
+@pytest.mark.slow
+def test_fields_section(report):
+    page = (report / "index.html").read_text()
+    section = page[page.index('id="fields"'):page.index('id="health"')]
+    assert '<img src="fields_0.svg"' in section and (report / "fields_0.svg").stat().st_size > 10_000
+    assert "fields_1.svg" not in section and "Not kept for front design(s)" in section
 
 
 def test_report_input_errors(tmp_path, capsys):
