@@ -359,10 +359,18 @@ class Config(_Frozen):
 
     def check_mesh_for(self, chord: float, spec: MeshSpec | None = None) -> None:
         """ConfigError unless the mesh can be built within its limits around a blade of ``chord`` (m)."""
+        spec = spec or self.mesh_spec()
         try:
-            (spec or self.mesh_spec()).check_for(chord)
+            spec.check_for(chord)
         except MeshSpecError as exc:
-            raise ConfigError(_mesh_message(exc)) from None
+            # The Reynolds number, and so the first cell, follow flow: unless mesh: sets its own; say so,
+            # since a flow: value is then as much the cause as the mesh key the message names.
+            follows = [f"flow.{k}" for k, mesh_key in (("speed", "flow_speed"), ("density", "viscosity"),
+                                                       ("viscosity", "viscosity"))
+                       if getattr(self.mesh, mesh_key, None) is None]
+            why = (f" (the Reynolds number follows {', '.join(follows)})"
+                   if follows and exc.field in ("flow_speed", "y_plus") else "")
+            raise ConfigError(_mesh_message(exc) + why) from None
 
     def space_chords(self) -> tuple[float, ...]:
         """The chords (m) of the blade space: its fixed ``L``, or both ends of ``L``'s range."""

@@ -99,8 +99,11 @@ def test_sigint_exits_130_and_marks_the_run_interrupted(tmp_path):
     config_path = tmp_path / "zdt1.yaml"
     config_path.write_text(CONFIG)
     run = tmp_path / "run"
+    # SIGINT back to its default in the child: a shell running this suite in the background ignores it,
+    # the child would inherit that, and Python then installs no Ctrl-C handler.
     proc = subprocess.Popen(millfoil("run", str(config_path), "--out", str(run)), stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True)
+                            stderr=subprocess.PIPE, text=True,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     try:
         wait_until_mid_generation(proc, run / STORE_NAME, generation=1)
         proc.send_signal(signal.SIGINT)
