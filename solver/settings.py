@@ -38,11 +38,12 @@ class SimpleSettings:
         they are stationary within ``classify_tol`` (relative; the issue's "lift and C_max stationary to
         0.1 % over a window"), ``oscillating`` (bounded; use the window means in
         ``FlowResults.classification``) or ``not_converged`` (drifting).
-    stall_tol, stop_window, stop_tol: a solve also stops as ``converged`` once every monitor varies by
-        at most ``stop_tol`` (relative, default 3e-4) over the last ``stop_window`` (50) iterations and
-        every scaled residual is below ``stall_tol`` — RANS residuals often stall between 1e-6 and 1e-5
-        (limiter chatter) while forces and C_max have settled (:func:`solver.monitors.settled`). Default
-        1e-5; None: off (run to ``tol`` or ``max_iter``).
+    stall_tol, stop_window, stop_tol: a solve also stops as ``converged`` once every scaled residual is
+        below ``stall_tol`` and every monitor is within ``stop_tol`` (relative, default 1e-3) of its
+        converged value, judged over two windows of ``stop_window`` (50) iterations: spread within
+        ``stop_tol`` and the geometric decay of its trend extrapolated (:func:`solver.monitors.settled`).
+        RANS residuals often stall between 1e-6 and 1e-5 (limiter chatter) while forces and C_max have
+        settled. Default 1e-5; None: off (run to ``tol`` or ``max_iter``).
     early_classify: stop a solve whose oscillation or drift is established over two classification
         windows (from ``3 classify_window`` iterations on) with the class and figures it would get at
         ``max_iter`` (:func:`solver.monitors.established`); False: run such solves to ``max_iter``.
@@ -71,7 +72,7 @@ class SimpleSettings:
     classify_tol: float = 1e-3
     stall_tol: float | None = 1e-5
     stop_window: int = 50
-    stop_tol: float = 3e-4
+    stop_tol: float = 1e-3
     early_classify: bool = True
     pressure_gradient: str = "least_squares"
     blas_threads: int | None = 1

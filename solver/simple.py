@@ -207,8 +207,9 @@ def _iterate(problem: Problem, settings: SimpleSettings, state: FlowState | None
             break
         if settled(res, monitors, it, settings):
             status, message = "converged", (
-                f"monitors stationary within {settings.stop_tol:g} over {settings.stop_window} iterations"
-                f" and scaled residuals < {settings.stall_tol:g} (largest {max(res.values()):.2e})")
+                f"monitors within {settings.stop_tol:g} of their converged values (two windows of "
+                f"{settings.stop_window} iterations, geometric decay extrapolated) and scaled residuals < "
+                f"{settings.stall_tol:g} (largest {max(res.values()):.2e})")
             break
         early = established(monitors, it, settings)
         if early is not None:
