@@ -73,14 +73,16 @@ def outflow_face_velocity(mesh: FVMesh, bnd: BoundaryData, u: np.ndarray, u_b: n
     outflow faces carry face means like the internal faces (a developed profile leaves the domain with
     the flux it carries inside). Prescribed-velocity faces keep ``u_b``."""
     tri = _triangles(mesh)
-    if not tri.any():
+    outflow = np.flatnonzero(bnd.velocity_kind == ZERO_GRADIENT)
+    if not tri.any() or not outflow.size:
         return u_b
     ni = mesh.n_internal
-    o = mesh.owner[ni:]
-    cap = QUADRATIC_CAP * face_operators(mesh)["d_length"][ni:, None] * np.linalg.norm(grad_u[o], axis=-1)
+    o = mesh.owner[ni + outflow]
+    cap = QUADRATIC_CAP * face_operators(mesh)["d_length"][ni + outflow, None] * np.linalg.norm(grad_u[o], axis=-1)
     cap *= tri[o][:, None]
-    curv = np.clip(boundary_face_curvature(mesh, u, u_b), -cap, cap)
-    return u_b + np.where((bnd.velocity_kind == ZERO_GRADIENT)[:, None], curv, 0.0)
+    out = u_b.copy()
+    out[outflow] += np.clip(boundary_face_curvature(mesh, u, u_b, outflow), -cap, cap)
+    return out
 
 
 def predicted_velocity_flux(mesh: FVMesh, bnd: BoundaryData, u: np.ndarray, u_b: np.ndarray,
