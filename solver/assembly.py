@@ -51,17 +51,28 @@ def upwind_stencil(mesh: FVMesh, flux: np.ndarray, gamma) -> Stencil:
 
 
 def deferred_correction(mesh: FVMesh, flux: np.ndarray, grad_ho: np.ndarray) -> np.ndarray:
-    """``F_f (phi_f^HO - phi_f^UD) = F_f grad_HO(phi)_U·(x_f - x_U)`` per internal face ``(ni, ...)``."""
+    """``F_f (phi_f^HO - phi_f^UD) = F_f grad_HO(phi)_U·(x_f - x_U)`` per internal face ``(ni, ...)``; one
+    compiled loop over the faces (:func:`solver.kernels.deferred_correction`)."""
     ni = mesh.n_internal
     if not grad_ho.any():           # upwind (k and omega by default): nothing to correct, skip the gathers
         return np.zeros((ni,) + grad_ho.shape[1:-1])
-    o, n = mesh.owner[:ni], mesh.neighbour[:ni]
-    F = flux[:ni]
-    extra = (1,) * (grad_ho.ndim - 2)                   # component axes of a vector field
-    xf = mesh.face_centre[:ni]
-    r_up = np.where((F >= 0)[:, None], xf - mesh.centroid[o], xf - mesh.centroid[n])
-    g_up = np.where((F >= 0).reshape((-1, 1) + extra), grad_ho[o], grad_ho[n])
-    return F.reshape((-1,) + extra) * np.einsum("f...d,fd->f...", g_up, r_up)
+    from .kernels import deferred_correction as kernel
+
+    r_owner, r_neighbour = _face_offsets(mesh)
+    g = np.ascontiguousarray(grad_ho, dtype=float).reshape(mesh.n_cells, -1, 2)
+    out = kernel(flux, g, r_owner, r_neighbour, mesh.owner, mesh.neighbour)
+    return out.reshape((ni,) + grad_ho.shape[1:-1])
+
+
+def _face_offsets(mesh: FVMesh) -> tuple[np.ndarray, np.ndarray]:
+    """``(x_f - x_P, x_f - x_N)`` ``(ni, 2)`` of the internal faces, m (cached in ``mesh.info``)."""
+    cached = mesh.info.get("face_offsets")
+    if cached is None:
+        ni = mesh.n_internal
+        xf = mesh.face_centre[:ni]
+        cached = mesh.info["face_offsets"] = (xf - mesh.centroid[mesh.owner[:ni]],
+                                              xf - mesh.centroid[mesh.neighbour[:ni]])
+    return cached
 
 
 def non_orthogonal_diffusion(mesh: FVMesh, gamma, grad: np.ndarray) -> np.ndarray:
