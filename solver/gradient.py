@@ -293,14 +293,29 @@ def quadratic_operators(mesh: FVMesh) -> dict:
     return out
 
 
-def face_average(mesh: FVMesh, phi: np.ndarray, phi_b: np.ndarray) -> np.ndarray:
+def face_average(mesh: FVMesh, phi: np.ndarray, phi_b: np.ndarray, faces: np.ndarray | None = None) -> np.ndarray:
     """Mean of ``phi (nc, ...)`` over each internal face ``(ni, ...)`` from the two sides' quadratic
     reconstructions (:func:`quadratic_operators`): exact for quadratic fields, so that the face fluxes of
     a smooth field have O(h³) errors per unit length and its discrete divergence is second order on
-    triangles too."""
+    triangles too. ``faces``: the internal faces to evaluate (``(len(faces), ...)`` returned; default
+    all), through the rows of the operator for those faces (cached per face set; bitwise the full
+    product's rows)."""
     v = extended(phi, phi_b)
     flat = v.reshape(v.shape[0], -1)
-    return (quadratic_operators(mesh)["face"] @ flat).reshape((mesh.n_internal,) + phi.shape[1:])
+    op = quadratic_operators(mesh)["face"] if faces is None else _face_average_rows(mesh, faces)
+    n = mesh.n_internal if faces is None else len(faces)
+    return (op @ flat).reshape((n,) + phi.shape[1:])
+
+
+def _face_average_rows(mesh: FVMesh, faces: np.ndarray):
+    """Rows ``faces`` of the face-average operator (:func:`quadratic_operators`), cached in ``mesh.info``
+    per face set. A CSR row slice keeps each row's entries in order: its product is bitwise the full
+    product's rows."""
+    cache = mesh.info.setdefault("face_average_rows", {})
+    key = faces.tobytes()
+    if key not in cache:
+        cache[key] = quadratic_operators(mesh)["face"][faces]
+    return cache[key]
 
 
 def boundary_face_curvature(mesh: FVMesh, phi: np.ndarray, phi_b: np.ndarray,

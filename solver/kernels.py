@@ -66,3 +66,19 @@ def deferred_correction(flux, grad, r_owner, r_neighbour, owner, neighbour):
         for i in range(m):
             out[f, i] = F * (grad[c, i, 0] * r0 + grad[c, i, 1] * r1)
     return out
+
+
+@njit(cache=True)
+def cap_quadratic_correction(lin, face_mean, faces, owner, neighbour, grad, d_length, cap_fraction):
+    """Add to the linear face values ``lin (ni, m)`` (in place) the quadratic correction ``face_mean - lin``
+    of the faces ``faces`` (``face_mean (len(faces), m)``), each component's clipped to
+    ``± cap_fraction |d| (|grad_P| + |grad_N|) / 2`` (:func:`solver.pressure.face_velocity`); grad
+    ``(nc, m, 2)``, d_length ``(nf,)`` m."""
+    for j in range(faces.shape[0]):
+        f = faces[j]
+        o, n = owner[f], neighbour[f]
+        for c in range(lin.shape[1]):
+            slope_o = np.sqrt(grad[o, c, 0] * grad[o, c, 0] + grad[o, c, 1] * grad[o, c, 1])
+            slope_n = np.sqrt(grad[n, c, 0] * grad[n, c, 0] + grad[n, c, 1] * grad[n, c, 1])
+            cap = cap_fraction * d_length[f] * 0.5 * (slope_o + slope_n)
+            lin[f, c] += min(max(face_mean[j, c] - lin[f, c], -cap), cap)

@@ -20,6 +20,7 @@ import numpy as np
 from .boundary import FIXED, ZERO_GRADIENT, BoundaryData
 from .fvmesh import FVMesh
 from .gradient import boundary_face_curvature, face_average, face_operators, interpolate_corrected, interpolate_linear
+from .kernels import cap_quadratic_correction
 from .linalg import FVPattern, LinearSystem
 
 #: Cap of the quadratic correction of the face velocity, as a fraction of the linear variation
@@ -46,15 +47,24 @@ def face_velocity(mesh: FVMesh, u: np.ndarray, u_b: np.ndarray, grad_u: np.ndarr
     Poiseuille flow then gets worse than with no correction at all.
     """
     lin = interpolate_corrected(mesh, u, grad_u)
-    tri = _triangles(mesh)
-    if not tri.any():                     # all quads: nothing to correct, no quadratic operators built
+    faces = _quadratic_faces(mesh)
+    if not faces.size:                    # all quads: nothing to correct, no quadratic operators built
         return lin
-    ni = mesh.n_internal
-    o, n = mesh.owner[:ni], mesh.neighbour[:ni]
-    slope = np.linalg.norm(grad_u, axis=-1)                       # (nc, 2): |grad| of each component
-    cap = QUADRATIC_CAP * face_operators(mesh)["d_length"][:ni, None] * 0.5 * (slope[o] + slope[n])
-    cap *= (tri[o] | tri[n])[:, None]
-    return lin + np.clip(face_average(mesh, u, u_b) - lin, -cap, cap)
+    cap_quadratic_correction(lin, face_average(mesh, u, u_b, faces), faces, mesh.owner, mesh.neighbour,
+                             np.ascontiguousarray(grad_u, dtype=float), face_operators(mesh)["d_length"],
+                             QUADRATIC_CAP)
+    return lin
+
+
+def _quadratic_faces(mesh: FVMesh) -> np.ndarray:
+    """Internal faces with a triangle on either side (:func:`_triangles`), where :func:`face_velocity`
+    applies the quadratic correction (cached in ``mesh.info``; a quarter of the faces of a blade mesh)."""
+    faces = mesh.info.get("quadratic_faces")
+    if faces is None:
+        ni = mesh.n_internal
+        tri = _triangles(mesh)
+        faces = mesh.info["quadratic_faces"] = np.flatnonzero(tri[mesh.owner[:ni]] | tri[mesh.neighbour[:ni]])
+    return faces
 
 
 def _triangles(mesh: FVMesh) -> np.ndarray:

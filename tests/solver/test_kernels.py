@@ -74,3 +74,34 @@ def test_deferred_correction_equals_numpy_form(mesh, field, vector):
 def test_deferred_correction_of_zero_gradient_is_zero(mesh):
     out = deferred_correction(mesh, np.ones(mesh.n_faces), np.zeros((mesh.n_cells, 2, 2)))
     assert out.shape == (mesh.n_internal, 2) and not out.any()
+
+
+def face_velocity_numpy(mesh, u, u_b, grad_u):
+    """The numpy form of the capped quadratic face velocity (the reference of
+    :func:`kernels.cap_quadratic_correction` inside :func:`solver.pressure.face_velocity`)."""
+    from solver.gradient import face_average, face_operators, interpolate_corrected
+    from solver.pressure import QUADRATIC_CAP, _triangles
+
+    lin = interpolate_corrected(mesh, u, grad_u)
+    tri = _triangles(mesh)
+    ni = mesh.n_internal
+    o, n = mesh.owner[:ni], mesh.neighbour[:ni]
+    slope = np.linalg.norm(grad_u, axis=-1)
+    cap = QUADRATIC_CAP * face_operators(mesh)["d_length"][:ni, None] * 0.5 * (slope[o] + slope[n])
+    cap *= (tri[o] | tri[n])[:, None]
+    return lin + np.clip(face_average(mesh, u, u_b) - lin, -cap, cap)
+
+
+def test_face_velocity_equals_numpy_form(mesh):
+    from solver.pressure import _quadratic_faces, face_velocity
+
+    rng = np.random.default_rng(3)
+    xy, xb = mesh.centroid, mesh.face_centre[mesh.n_internal:]
+    u = np.column_stack([np.sin(3 * xy[:, 0]) * xy[:, 1] ** 2, np.cos(2 * xy[:, 1])])
+    u += 0.05 * rng.standard_normal((mesh.n_cells, 2))           # rough: the cap acts on some faces
+    u_b = np.column_stack([np.sin(3 * xb[:, 0]) * xb[:, 1] ** 2, np.cos(2 * xb[:, 1])])
+    grad_u = ls_gradient(mesh, u, u_b)
+    ref = face_velocity_numpy(mesh, u, u_b, grad_u)
+    out = face_velocity(mesh, u, u_b, grad_u)
+    assert 0 < _quadratic_faces(mesh).size < mesh.n_internal         # mixed mesh: both kinds of face
+    np.testing.assert_array_equal(out, ref)
