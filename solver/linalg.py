@@ -7,6 +7,7 @@ once per mesh; :meth:`FVPattern.matrix` refills values only.
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
@@ -48,6 +49,21 @@ class FVPattern:
         """CSR matrix with the given diagonal ``(nc,)``, ``A[P, N] = upper``, ``A[N, P] = lower`` ``(ni,)``."""
         data = np.concatenate([diag, upper, lower])[self.perm]
         return sp.csr_matrix((data, self.indices, self.indptr), shape=(self.n, self.n), copy=False)
+
+    @functools.cached_property
+    def off_diagonal(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The off-diagonal part of the pattern alone: CSR ``(indptr, indices)`` (each row's columns in
+        the order of the full pattern, the diagonal left out) and ``perm`` into ``concat(upper, lower)``,
+        for :meth:`off_diagonal_values` (computed once)."""
+        diag_slot = self.perm < self.n
+        keep = ~diag_slot
+        indptr = np.concatenate([[0], np.cumsum(np.diff(self.indptr) - 1)]).astype(self.indptr.dtype)
+        return indptr, self.indices[keep], self.perm[keep] - self.n
+
+    def off_diagonal_values(self, upper: np.ndarray, lower: np.ndarray) -> np.ndarray:
+        """CSR values of the off-diagonal part (:attr:`off_diagonal`) with ``A[P, N] = upper``, ``A[N, P] =
+        lower``."""
+        return np.concatenate([upper, lower])[self.off_diagonal[2]]
 
     def off_diagonal_row_sum(self, upper: np.ndarray, lower: np.ndarray) -> np.ndarray:
         """``sum_N A[P, N]`` over the off-diagonal entries of each row ``(nc,)``."""

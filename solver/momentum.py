@@ -30,7 +30,8 @@ from .assembly import deferred_correction, non_orthogonal_diffusion, scatter_fac
 from .boundary import FIXED, SYMMETRY, ZERO_GRADIENT, BoundaryData
 from .fvmesh import FVMesh
 from .gradient import interpolate_linear
-from .linalg import FVPattern, LinearSystem
+from .kernels import symmetric_gauss_seidel_pair
+from .linalg import FVPattern, LinearSystem, SolverSettings
 
 
 @dataclass
@@ -47,6 +48,22 @@ class MomentumSystem:
     a_p: np.ndarray
     h1: np.ndarray
     alpha: float = 1.0
+    shared: tuple | None = None
+
+    def solve(self, solver: SolverSettings) -> np.ndarray:
+        """The predicted velocity ``(nc, 2)``: both systems solved by ``solver``. Gauss–Seidel sweeps both
+        in one pass over their shared off-diagonal coefficients (:attr:`shared`: ``(pattern, upper,
+        lower, diag_u, diag_v)``; :func:`solver.kernels.symmetric_gauss_seidel_pair`, bitwise the two
+        separate solves, twice as fast)."""
+        if solver.name != "gauss_seidel" or self.shared is None or solver.options:
+            return np.column_stack([solver.solve(self.u)[0], solver.solve(self.v)[0]])
+        pattern, upper, lower, diag_u, diag_v = self.shared
+        indptr, indices, _ = pattern.off_diagonal
+        x, y = np.array(self.u.x0, dtype=float), np.array(self.v.x0, dtype=float)
+        symmetric_gauss_seidel_pair(indptr, indices, pattern.off_diagonal_values(upper, lower), diag_u, diag_v,
+                                    x, y, np.ascontiguousarray(self.u.b, dtype=float),
+                                    np.ascontiguousarray(self.v.b, dtype=float), solver.maxiter)
+        return np.column_stack([x, y])
 
 
 def momentum_system(mesh: FVMesh, pattern: FVPattern, bnd: BoundaryData, u: np.ndarray, u_b: np.ndarray,
@@ -92,7 +109,7 @@ def momentum_system(mesh: FVMesh, pattern: FVPattern, bnd: BoundaryData, u: np.n
         b = src[:, c] + (1.0 - alpha) * d * u[:, c]
         sys.append((LinearSystem(pattern.matrix(d, upper, lower), b, u[:, c].copy()), d))
     a_p = 0.5 * (sys[0][1] + sys[1][1])
-    return MomentumSystem(sys[0][0], sys[1][0], a_p, h1, alpha)
+    return MomentumSystem(sys[0][0], sys[1][0], a_p, h1, alpha, (pattern, upper, lower, sys[0][1], sys[1][1]))
 
 
 def _boundary(mesh, bnd, u, u_b, Fb, grad_u, mu):

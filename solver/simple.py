@@ -107,7 +107,7 @@ def outer_iteration(problem: Problem, s: FlowState, cfg: SimpleSettings, solver_
     (ru, nu), (rv, nv) = mom.u.residual_norms(), mom.v.residual_norms()
     scale = max(nu, nv) + 1e-300        # one normaliser for both components (a zero v field stays 0)
     res = {"u": ru / scale, "v": rv / scale}
-    u_star = np.column_stack([cfg.momentum_solver.solve(mom.u)[0], cfg.momentum_solver.solve(mom.v)[0]])
+    u_star = mom.solve(cfg.momentum_solver)
     # 3. Rhie–Chow fluxes (Majumdar's term keeps the converged flux independent of alpha_u)
     relax = (1.0 - cfg.alpha_u) * (s.flux - predicted_velocity_flux(m, bnd, s.u, u_b, grad_u, rho))
     r_au = m.volume / mom.a_p

@@ -4,6 +4,7 @@ documents a different summation order."""
 
 import numpy as np
 import pytest
+import scipy.sparse as sp
 
 from solver.assembly import deferred_correction
 from solver.gradient import LIMITERS, ls_gradient, neighbour_bounds
@@ -105,3 +106,25 @@ def test_face_velocity_equals_numpy_form(mesh):
     out = face_velocity(mesh, u, u_b, grad_u)
     assert 0 < _quadratic_faces(mesh).size < mesh.n_internal         # mixed mesh: both kinds of face
     np.testing.assert_array_equal(out, ref)
+
+
+def test_gauss_seidel_pair_equals_two_separate_solves(mesh):
+    """The u and v momentum systems swept together (:meth:`MomentumSystem.solve`) give bitwise the two
+    separate pyamg-kernel solves."""
+    from solver.linalg import FVPattern, LinearSystem, SolverSettings
+    from solver.momentum import MomentumSystem
+
+    rng = np.random.default_rng(4)
+    pattern = FVPattern.from_mesh(mesh)
+    ni, nc = mesh.n_internal, mesh.n_cells
+    upper, lower = -rng.uniform(0.1, 1.0, ni), -rng.uniform(0.1, 1.0, ni)
+    diags = [4.0 + rng.uniform(0, 1, nc) for _ in range(2)]
+    systems = [LinearSystem(pattern.matrix(d, upper, lower), rng.standard_normal(nc), rng.standard_normal(nc))
+               for d in diags]
+    mom = MomentumSystem(*systems, 0.5 * (diags[0] + diags[1]), np.zeros(nc), 0.9,
+                         (pattern, upper, lower, *diags))
+    gs = SolverSettings("gauss_seidel", 0.1, 5)
+    np.testing.assert_array_equal(mom.solve(gs), np.column_stack([gs.solve(systems[0])[0], gs.solve(systems[1])[0]]))
+    indptr, indices, _ = pattern.off_diagonal
+    off = sp.csr_matrix((pattern.off_diagonal_values(upper, lower), indices, indptr), shape=(nc, nc))
+    np.testing.assert_array_equal((off + sp.diags(diags[0])).toarray(), systems[0].A.toarray())
