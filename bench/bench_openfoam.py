@@ -33,79 +33,10 @@ sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "bench"))
 
 from bench_performance import cases, iterations_within  # noqa: E402
+from openfoam_case import DEPTH, ENV, HEADER, ensure_openfoam, write_polymesh  # noqa: E402
 
-DEPTH = 0.01        # extrusion depth, m (forces are divided by it: per unit span)
-HEADER = """FoamFile
-{{
-    version 2.0;
-    format ascii;
-    class {cls};
-    location "{loc}";
-    object {obj};
-}}
-"""
-
-
-# --------------------------------------------------------------------------------------------- the mesh
-def write_polymesh(mesh, directory: Path) -> None:
-    """``constant/polyMesh`` of the 2D finite-volume mesh ``mesh`` extruded by :data:`DEPTH` along z.
-
-    Internal faces in upper-triangular order (owner < neighbour, sorted by owner then neighbour), each
-    face's node order giving a normal from owner to neighbour (outward on boundaries); boundary faces per
-    group as in ``mesh.boundary``, then the front and back faces (patch ``frontAndBack``, type empty)."""
-    poly = directory / "constant" / "polyMesh"
-    poly.mkdir(parents=True, exist_ok=True)
-    npts, ni, nc = len(mesh.points), mesh.n_internal, mesh.n_cells
-    pts = np.vstack([np.column_stack([mesh.points, np.zeros(npts)]),
-                     np.column_stack([mesh.points, np.full(npts, DEPTH)])])
-    owner, neigh, faces = mesh.owner.copy(), mesh.neighbour.copy(), mesh.faces.copy()
-    swap = np.zeros(len(faces), bool)
-    swap[:ni] = owner[:ni] > neigh[:ni]
-    owner[:ni][swap[:ni]], neigh[:ni][swap[:ni]] = mesh.neighbour[:ni][swap[:ni]], mesh.owner[:ni][swap[:ni]]
-    sf = np.where(swap[:, None], -mesh.sf, mesh.sf)
-    edge = mesh.points[faces[:, 1]] - mesh.points[faces[:, 0]]
-    flip = edge[:, 1] * sf[:, 0] - edge[:, 0] * sf[:, 1] < 0      # quad (a, b, b', a') has normal (e_y, -e_x)
-    faces[flip] = faces[flip][:, ::-1]
-    order = np.lexsort((neigh[:ni], owner[:ni]))
-    side = [[int(a), int(b), int(b) + npts, int(a) + npts] for a, b in faces]
-    quads = [side[i] for i in order] + side[ni:]
-    own = list(owner[:ni][order]) + list(owner[ni:])
-    nei = list(neigh[:ni][order])
-    cells = np.concatenate([np.pad(c, ((0, 0), (0, 4 - c.shape[1])), constant_values=-1)
-                            for c in mesh.cells.values()])
-    for c, nodes in enumerate(cells):
-        nodes = [int(v) for v in nodes if v >= 0]
-        xy = mesh.points[nodes]
-        area = 0.5 * np.sum(xy[:, 0] * np.roll(xy[:, 1], -1) - np.roll(xy[:, 0], -1) * xy[:, 1])
-        if area < 0:
-            nodes = nodes[::-1]
-        quads.append(nodes[::-1])                          # back, normal -z
-        quads.append([v + npts for v in nodes])            # front, normal +z
-        own += [c, c]
-    note = f'note "nPoints: {len(pts)} nCells: {nc} nFaces: {len(quads)} nInternalFaces: {ni}";'
-
-    def write(name, cls, body):
-        head = HEADER.format(cls=cls, loc="constant/polyMesh", obj=name)
-        if name == "owner":
-            head = head.replace("object owner;", f"object owner;\n    {note}")
-        (poly / name).write_text(head + body)
-
-    write("points", "vectorField", f"{len(pts)}\n(\n" + "".join(f"({x:.12g} {y:.12g} {z:.12g})\n" for x, y, z in pts)
-          + ")\n")
-    write("faces", "faceList", f"{len(quads)}\n(\n" + "".join(f"{len(q)}({' '.join(map(str, q))})\n" for q in quads)
-          + ")\n")
-    write("owner", "labelList", f"{len(own)}\n(\n" + "\n".join(map(str, own)) + "\n)\n")
-    write("neighbour", "labelList", f"{len(nei)}\n(\n" + "\n".join(map(str, nei)) + "\n)\n")
-    types = {"inlet": "patch", "outlet": "patch", "top": "symmetry", "bottom": "symmetry", "blade": "wall"}
-    entries, start = [], ni
-    for g in mesh.group_names:
-        n = len(mesh.boundary[g])
-        entries.append(f"    {g}\n    {{\n        type {types.get(g, 'patch')};\n        nFaces {n};\n"
-                       f"        startFace {start};\n    }}\n")
-        start += n
-    entries.append(f"    frontAndBack\n    {{\n        type empty;\n        nFaces {2 * nc};\n"
-                   f"        startFace {start};\n    }}\n")
-    write("boundary", "polyBoundaryMesh", f"{len(entries)}\n(\n" + "".join(entries) + ")\n")
+#: Patch types of the blade channel's boundary groups.
+BLADE_PATCH_TYPES = {"inlet": "patch", "outlet": "patch", "top": "symmetry", "bottom": "symmetry", "blade": "wall"}
 
 
 # --------------------------------------------------------------------------------------------- the case
@@ -204,29 +135,11 @@ relaxationFactors { equations { U 0.9; ".*" 0.9; } }
         path.write_text(HEADER.format(cls=cls, loc=str(Path(rel).parent), obj=Path(rel).name) + body)
 
 
-#: Debian's package needs its environment (WM_PROJECT_DIR, etc/controlDict) sourced before running a solver.
-_BASHRC = Path("/usr/share/openfoam/etc/bashrc")
-_ENV = f"source {_BASHRC} >/dev/null 2>&1; " if _BASHRC.exists() else ""
-
-
-def ensure_openfoam(install: bool) -> str | None:
-    """None when ``simpleFoam`` runs, else why not (after trying ``apt-get install -y openfoam``)."""
-    if shutil.which("simpleFoam"):
-        return None
-    if not install:
-        return "simpleFoam not found (--no-install)"
-    try:
-        subprocess.run(["apt-get", "install", "-y", "-q", "openfoam"], check=True, capture_output=True, timeout=1800)
-    except (OSError, subprocess.SubprocessError) as exc:
-        return f"apt-get install openfoam failed: {exc}"
-    return None if shutil.which("simpleFoam") else "simpleFoam still missing after apt-get install openfoam"
-
-
 def run_openfoam(directory: Path, half_dynamic: float) -> dict:
     """Run simpleFoam in ``directory``; lift history (C_L per iteration) and timings from its log and forces."""
     t0 = time.perf_counter()
     with open(directory / "log.simpleFoam", "w") as log:
-        subprocess.run(["bash", "-c", f'{_ENV}simpleFoam -case "{directory}"'], stdout=log,
+        subprocess.run(["bash", "-c", f'{ENV}simpleFoam -case "{directory}"'], stdout=log,
                        stderr=subprocess.STDOUT, check=False)
     wall = time.perf_counter() - t0
     text = (directory / "log.simpleFoam").read_text()
@@ -288,7 +201,7 @@ def main() -> None:
         if why is None:
             case = args.work / name.replace(" ", "_")
             shutil.rmtree(case, ignore_errors=True)
-            write_polymesh(fvmesh, case)
+            write_polymesh(fvmesh, case, BLADE_PATCH_TYPES)
             write_case(case, flow.speed, flow.density, flow.viscosity, flow.intensity, flow.viscosity_ratio,
                        args.iterations)
             res = run_openfoam(case, half_dynamic)

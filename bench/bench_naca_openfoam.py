@@ -1,0 +1,470 @@
+"""NACA 0012 at Re 6e6 through stall: millfoil and OpenFOAM simpleFoam + kOmegaSST on the same C-mesh.
+
+For each ``--levels`` level of the validation C-mesh (:mod:`solver.validation.meshes.naca_mesh`) and each
+angle of attack, the mesh (with the far-field in/out split of that angle) is written as an OpenFOAM
+``polyMesh`` (:mod:`openfoam_case`; the very same cells) and solved by both codes with the same
+conditions (docs/validation.md, "Matching the conditions"):
+
+* far field: velocity inlet U∞ = (cos α, sin α) on ``farfield_in`` **without** the point-vortex
+  correction (``run_naca0012(..., vortex_correction=False)``), p = 0 with zero-gradient velocity on
+  ``farfield_out``; TMR freestream k, ω (:func:`solver.validation.naca0012.tmr_freestream`) on the inlet,
+  zero gradient on the outlet;
+* wall: no slip, k = 0, ω fixed in the wall cells to 6ν/(β₁ y²) (millfoil ``low_re``; OpenFOAM
+  ``omegaWallFunction``, which does exactly this below y+ = 11 in v1912), ν_t = 0 at the wall;
+* SST-2003 (millfoil) and ``kOmegaSST`` (OpenFOAM v1912, default coefficients = SST-2003 constants);
+* linear-upwind U (limited least-squares gradient), first-order upwind k and ω;
+* millfoil runs its validation settings through :func:`solver.validation.naca0012.run_naca0012`; OpenFOAM
+  runs SIMPLEC (``consistent``) with GAMG.
+
+Per angle and code it records C_L, C_D (pressure + viscous, along and normal to U∞), C_max = max |u|/U∞ over
+the cells, the suction-side separation point (x/c of the first wall face from the leading edge whose
+c_f < 0), iterations, seconds, the spread of C_L over the last 200 iterations and the wall C_p and c_f
+(per wall face; both codes have the same faces, so the RMS differences are per face). JSON lines to ``--out``.
+
+    OMP_NUM_THREADS=1 python bench/bench_naca_openfoam.py --codes openfoam --levels coarse --out naca.jsonl
+    OMP_NUM_THREADS=1 python bench/bench_naca_openfoam.py --codes millfoil --alphas 0 10 --out naca.jsonl
+    python bench/bench_naca_openfoam.py --report naca.jsonl        # table + docs/figures/validation/*.png
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import shutil
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).parents[1]
+sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / "bench"))
+
+from openfoam_case import (  # noqa: E402
+    DEPTH,
+    ensure_openfoam,
+    execution_times,
+    field_body,
+    latest_time,
+    read_dat,
+    read_field,
+    run_utility,
+    write_file,
+    write_polymesh,
+)
+
+from solver.turbulence import SSTConstants  # noqa: E402
+from solver.validation.meshes.naca_mesh import naca0012_cmesh  # noqa: E402
+from solver.validation.naca0012 import REYNOLDS, freestream, load_clcd, tmr_freestream  # noqa: E402
+
+#: Default angles of attack, deg: steps of 2 up to 12, then 1 through C_L,max (SST: about 16-18 deg).
+ALPHAS = (0, 2, 4, 6, 8, 10, 12, 13, 14, 15, 16, 17, 18, 19, 20)
+LADSON_FILE = ROOT.parent / "shared" / "reference" / "ladson_naca0012_clcd.csv"
+FIGURES = ROOT / "docs" / "figures" / "validation"
+PATCH_TYPES = {"wall": "wall", "farfield_in": "patch", "farfield_out": "patch"}
+#: Iterations over which the lift spread is reported (stationary or not).
+WINDOW = 200
+
+
+# ------------------------------------------------------------------------------------------- conditions
+def freestream_turbulence(reynolds: float = REYNOLDS) -> tuple[float, float, float]:
+    """``(nu, k, omega)`` of the TMR freestream at U = 1, chord 1: ``k = 1.5 (I U)²``, ``omega = k / (nu r)``
+    (millfoil's :func:`solver.turbulence.inlet_turbulence` of the inlet intensity I and ratio r)."""
+    nu = 1.0 / reynolds
+    t = tmr_freestream()
+    k = 1.5 * t["intensity"] ** 2
+    return nu, k, k / (nu * t["viscosity_ratio"])
+
+
+def wall_tangent(mesh) -> np.ndarray:
+    """Unit tangent ``(nw, 2)`` of each wall face pointing downstream (positive x component), so that
+    ``c_f = tau_w · t / q`` is positive for attached flow from the leading to the trailing edge."""
+    f = mesh.boundary["wall"]
+    n = mesh.normal[f]
+    t = np.column_stack([-n[:, 1], n[:, 0]])
+    return t * np.where(t[:, 0] < 0, -1.0, 1.0)[:, None]
+
+
+def separation_point(x: np.ndarray, y: np.ndarray, cf: np.ndarray) -> float | None:
+    """x/c of the first face of the upper (suction) surface, from the leading edge, where c_f < 0; None
+    when c_f stays positive."""
+    up = np.where(y > 0)[0]
+    up = up[np.argsort(x[up])]
+    neg = up[cf[up] < 0]
+    return float(x[neg[0]]) if len(neg) else None
+
+
+def window_stats(cl_history: np.ndarray, every: int) -> dict:
+    """Mean and spread (max - min) of C_L over the last :data:`WINDOW` iterations of a history sampled
+    every ``every`` iterations."""
+    w = cl_history[-(WINDOW // every + 1):]
+    return {"cl_mean_window": float(np.mean(w)), "cl_spread_window": float(np.ptp(w))}
+
+
+def wall_record(mesh, cp: np.ndarray, tau: np.ndarray) -> dict:
+    """Per wall face (group order): x, y, C_p and c_f = tau_w·t / (½ρU²) (ρ = U = 1)."""
+    xc = mesh.face_centre[mesh.boundary["wall"]]
+    cf = np.einsum("ij,ij->i", tau, wall_tangent(mesh)) / 0.5
+    return {"x": xc[:, 0].tolist(), "y": xc[:, 1].tolist(), "cp": (cp / 0.5).tolist(), "cf": cf.tolist(),
+            "x_sep": separation_point(xc[:, 0], xc[:, 1], cf)}
+
+
+# ---------------------------------------------------------------------------------------------- OpenFOAM
+def fv_schemes(u_gradient: str = "Gauss linear") -> str:
+    """Linear-upwind U on the gradient ``u_gradient`` (``--u-gradient``), first-order upwind k and omega
+    (millfoil's SST default), Gauss linear gradients elsewhere, corrected Laplacians. OpenFOAM's
+    ``leastSquares`` gradient (millfoil's kind) made every run on this mesh diverge within 30 iterations
+    (from a uniform or the potential start), so the gradients are Green-Gauss (docs/validation.md)."""
+    return """ddtSchemes { default steadyState; }
+gradSchemes
+{
+    default Gauss linear;
+    gradU GRADIENT;
+}
+divSchemes
+{
+    default none;
+    div(phi,U) bounded Gauss linearUpwind gradU;
+    div(phi,k) bounded Gauss upwind;
+    div(phi,omega) bounded Gauss upwind;
+    div((nuEff*dev2(T(grad(U))))) Gauss linear;
+}
+laplacianSchemes { default Gauss linear corrected; }
+interpolationSchemes { default linear; }
+snGradSchemes { default corrected; }
+wallDist { method meshWave; correctWalls true; }
+""".replace("GRADIENT", u_gradient)
+
+
+def fv_solution(alpha_u: float, alpha_turb: float) -> str:
+    """SIMPLEC (``consistent``), GAMG pressure; the residual controls stop a converged run."""
+    return f"""solvers
+{{
+    p {{ solver GAMG; smoother GaussSeidel; tolerance 1e-9; relTol 0.01; }}
+    "(U|k|omega)" {{ solver smoothSolver; smoother GaussSeidel; nSweeps 2; tolerance 1e-12; relTol 0.05; }}
+    Phi {{ solver PCG; preconditioner DIC; tolerance 1e-10; relTol 0; maxIter 5000; }}
+}}
+potentialFlow {{ nNonOrthogonalCorrectors 3; }}
+SIMPLE
+{{
+    nNonOrthogonalCorrectors 0;
+    consistent yes;
+    residualControl {{ p 1e-7; U 1e-8; "(k|omega)" 1e-8; }}
+}}
+relaxationFactors {{ equations {{ U {alpha_u}; "(k|omega)" {alpha_turb}; }} }}
+"""
+
+
+def control_dict(alpha_deg: float, iterations: int) -> str:
+    """simpleFoam for at most ``iterations``; force coefficients every iteration (ρ = U = c = 1, span
+    :data:`DEPTH`), wall shear stress at the end."""
+    d = freestream(alpha_deg)
+    return f"""application simpleFoam;
+startFrom startTime;
+startTime 0;
+stopAt endTime;
+endTime {iterations};
+deltaT 1;
+writeControl timeStep;
+writeInterval {iterations};
+writeFormat ascii;
+writePrecision 10;
+runTimeModifiable false;
+functions
+{{
+    forceCoeffs
+    {{
+        type forceCoeffs;
+        libs ("libforces.so");
+        patches (wall);
+        rho rhoInf;
+        rhoInf 1;
+        CofR (0.25 0 0);
+        liftDir ({-d[1]:.15g} {d[0]:.15g} 0);
+        dragDir ({d[0]:.15g} {d[1]:.15g} 0);
+        pitchAxis (0 0 1);
+        magUInf 1;
+        lRef 1;
+        Aref {DEPTH};
+        writeControl timeStep;
+        writeInterval 1;
+    }}
+    wallShearStress
+    {{
+        type wallShearStress;
+        libs ("libfieldFunctionObjects.so");
+        patches (wall);
+        writeControl writeTime;
+    }}
+}}
+"""
+
+
+def write_openfoam_case(directory: Path, mesh, alpha_deg: float, iterations: int, reynolds: float = REYNOLDS,
+                        alpha_u: float = 0.9, alpha_turb: float = 0.8, u_gradient: str = "Gauss linear") -> None:
+    """The whole simpleFoam case of the NACA 0012 at ``alpha_deg`` on ``mesh`` (conditions: module docstring)."""
+    nu, k, omega = freestream_turbulence(reynolds)
+    beta1 = SSTConstants().beta1
+    d = freestream(alpha_deg)
+    u = f"({d[0]:.15g} {d[1]:.15g} 0)"
+    write_polymesh(mesh, directory, PATCH_TYPES)
+    write_file(directory, "constant/transportProperties", "dictionary", f"transportModel Newtonian;\nnu {nu:.10g};\n")
+    write_file(directory, "constant/turbulenceProperties", "dictionary",
+               "simulationType RAS;\nRAS\n{\n    RASModel kOmegaSST;\n    turbulence on;\n    printCoeffs on;\n}\n")
+    write_file(directory, "system/controlDict", "dictionary", control_dict(alpha_deg, iterations))
+    write_file(directory, "system/fvSchemes", "dictionary", fv_schemes(u_gradient))
+    write_file(directory, "system/fvSolution", "dictionary", fv_solution(alpha_u, alpha_turb))
+    fields = {
+        "U": ("volVectorField", "[0 1 -1 0 0 0 0]", u, {
+            "farfield_in": f"type fixedValue; value uniform {u};", "farfield_out": "type zeroGradient;",
+            "wall": "type noSlip;"}),
+        "p": ("volScalarField", "[0 2 -2 0 0 0 0]", "0", {
+            "farfield_in": "type zeroGradient;", "farfield_out": "type fixedValue; value uniform 0;",
+            "wall": "type zeroGradient;"}),
+        "k": ("volScalarField", "[0 2 -2 0 0 0 0]", f"{k:.10g}", {
+            "farfield_in": f"type fixedValue; value uniform {k:.10g};", "farfield_out": "type zeroGradient;",
+            "wall": "type fixedValue; value uniform 0;"}),
+        "omega": ("volScalarField", "[0 0 -1 0 0 0 0]", f"{omega:.10g}", {
+            "farfield_in": f"type fixedValue; value uniform {omega:.10g};", "farfield_out": "type zeroGradient;",
+            "wall": f"type omegaWallFunction; beta1 {beta1}; blended false; value uniform {omega:.10g};"}),
+        "nut": ("volScalarField", "[0 2 -1 0 0 0 0]", "0", {
+            "farfield_in": "type calculated; value uniform 0;", "farfield_out": "type calculated; value uniform 0;",
+            "wall": "type nutLowReWallFunction; value uniform 0;"}),
+    }
+    for name, (cls, dims, internal, patches) in fields.items():
+        write_file(directory, f"0/{name}", cls, field_body(dims, internal, patches))
+
+
+def check_mesh(directory: Path) -> dict:
+    """Run ``checkMesh``; ``{"ok": bool, "summary": the failed-check lines or "Mesh OK."}``."""
+    run_utility(directory, "checkMesh")
+    text = (directory / "log.checkMesh").read_text()
+    bad = [ln.strip() for ln in text.splitlines() if "***" in ln]
+    return {"ok": "Mesh OK." in text, "summary": "; ".join(bad) or "Mesh OK."}
+
+
+def run_openfoam(directory: Path, level: str, alpha_deg: float, iterations: int,
+                 u_gradient: str = "Gauss linear", alpha_u: float = 0.9) -> dict:
+    """Write, check and run one OpenFOAM case; the record of :func:`openfoam_record`."""
+    cm = naca0012_cmesh(level, alpha_deg=alpha_deg)
+    shutil.rmtree(directory, ignore_errors=True)
+    write_openfoam_case(directory, cm.mesh, alpha_deg, iterations, alpha_u=alpha_u, u_gradient=u_gradient)
+    mesh_check = check_mesh(directory)
+    rc, wall = run_utility(directory, "simpleFoam")
+    rec = openfoam_record(directory, cm.mesh)
+    rec.update(mesh_check=mesh_check["summary"], exit_status=rc, seconds=round(wall, 1), u_gradient=u_gradient,
+               alpha_u=alpha_u)
+    return rec
+
+
+def openfoam_record(directory: Path, mesh) -> dict:
+    """Coefficients, C_max, wall C_p / c_f and convergence data of a finished simpleFoam case."""
+    log = (directory / "log.simpleFoam").read_text()
+    coef_file = sorted((directory / "postProcessing" / "forceCoeffs").glob("*/coefficient.dat"))
+    last = latest_time(directory)
+    if not coef_file or last is None:
+        return {"error": f"no coefficients or no written time (see {directory / 'log.simpleFoam'})"}
+    header = [ln for ln in coef_file[0].read_text().splitlines() if ln.startswith("#")][-1][1:].split()
+    data = read_dat(coef_file[0])
+    cl, cd = data[:, header.index("Cl")], data[:, header.index("Cd")]
+    u, _ = read_field(last / "U", mesh.n_cells)
+    p, _ = read_field(last / "p", mesh.n_cells)
+    _, shear = read_field(last / "wallShearStress", mesh.n_cells)
+    wall = mesh.boundary["wall"]
+    # OpenFOAM's wallShearStress is the stress of the wall on the fluid (-n·R_eff): the fluid's on the wall is -it;
+    # the wall pressure is the wall cell's (zeroGradient), as in OpenFOAM's own forces
+    rec = {"c_l": float(cl[-1]), "c_d": float(cd[-1]), "c_max": float(np.linalg.norm(u[:, :2], axis=1).max()),
+           "iterations": int(data[-1, 0]), "converged": "SIMPLE solution converged" in log,
+           "cpu_seconds": float(execution_times(log)[-1]) if execution_times(log).size else None}
+    rec["status"] = "converged" if rec["converged"] else "iteration cap"
+    rec.update(window_stats(cl, 1))
+    rec["wall"] = wall_record(mesh, p[mesh.owner[wall]], -shear["wall"][:, :2])
+    return rec
+
+
+# ---------------------------------------------------------------------------------------------- millfoil
+def run_millfoil(level: str, alpha_deg: float, max_iter: int, state_file: Path | None = None,
+                 max_seconds: float | None = None) -> dict:
+    """The validation case's own settings (:func:`run_naca0012`) without the point-vortex correction."""
+    from solver.validation.naca0012 import Convergence, run_naca0012
+
+    t0 = time.perf_counter()
+    r = run_naca0012(alpha_deg, level, vortex_correction=False, convergence=Convergence(max_iter=max_iter),
+                     state_file=state_file, max_seconds=max_seconds)
+    res = r.results
+    rec = {"c_l": r.c_l, "c_d": r.c_d, "c_max": float(res.c_max), "iterations": r.iterations, "status": r.status,
+           "converged": r.status == "converged", "seconds": round(time.perf_counter() - t0, 1),
+           "iterations_this_run": r.history.get("iterations_this_run"), "y_plus_max": r.y_plus_max}
+    rec.update(window_stats(np.asarray(r.history["c_l"]), r.history["chunk"]))
+    j = res.mesh.boundary_local("wall")
+    rec["wall"] = wall_record(res.mesh, res.boundary_pressure()[j], res.wall_shear("wall"))
+    return rec
+
+
+# ------------------------------------------------------------------------------------------------ report
+def load_records(paths) -> dict:
+    """``{(level, alpha, code): record}`` from JSONL files (the last record of a key wins)."""
+    out = {}
+    for path in paths:
+        for line in Path(path).read_text().splitlines():
+            if line.strip():
+                r = json.loads(line)
+                out[(r["level"], float(r["alpha"]), r["code"])] = r
+    return out
+
+
+def wall_rms(a: dict, b: dict, key: str) -> float:
+    """RMS over the wall faces of ``a[key] - b[key]`` (the same faces in both records)."""
+    return float(np.sqrt(np.mean((np.asarray(a["wall"][key]) - np.asarray(b["wall"][key])) ** 2)))
+
+
+def fmt(v, spec: str) -> str:
+    return "—" if v is None else format(v, spec)
+
+
+def report(records: dict) -> str:
+    """Markdown table per level and angle (both codes, the CFL3D SST reference at 0 and 10 deg) and the angle of
+    C_L,max per code."""
+    ref = load_clcd()
+    lines = ["| level | α | code | C_L | C_D | C_max | x_sep/c | iterations (status) | C_L spread 200 it | s "
+             "| ΔC_L % | ΔC_D % | RMS ΔC_p | RMS Δc_f | CFL3D C_L / C_D |",
+             "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
+    levels = sorted({k[0] for k in records}, key=["coarse", "medium", "fine"].index)
+    for level in levels:
+        for a in sorted({k[1] for k in records if k[0] == level}):
+            of, mf = records.get((level, a, "openfoam")), records.get((level, a, "millfoil"))
+            for code, r in (("OpenFOAM", of), ("millfoil", mf)):
+                if r is None or "error" in r:
+                    continue
+                diff = ["", "", "", ""]
+                if code == "millfoil" and of is not None and "error" not in of:
+                    diff = [f"{100 * (r['c_l'] / of['c_l'] - 1):+.2f}" if abs(of["c_l"]) > 1e-3
+                            else f"{r['c_l'] - of['c_l']:+.1e} abs", f"{100 * (r['c_d'] / of['c_d'] - 1):+.2f}",
+                            f"{wall_rms(r, of, 'cp'):.4f}", f"{wall_rms(r, of, 'cf'):.2e}"]
+                refs = f"{ref[a][0]:.4f} / {ref[a][1]:.5f}" if a in ref and code == "OpenFOAM" else ""
+                lines.append(
+                    f"| {level} | {a:g} | {code} | {r['c_l']:.4f} | {r['c_d']:.5f} | {r['c_max']:.3f} | "
+                    f"{fmt(r['wall']['x_sep'], '.3f')} | {r['iterations']} ({r['status']}) | "
+                    f"{r['cl_spread_window']:.1e} | {fmt(r.get('seconds'), '.0f')} | " + " | ".join(diff)
+                    + f" | {refs} |")
+        for code in ("openfoam", "millfoil"):
+            pts = [(a, r["c_l"]) for (lv, a, c), r in records.items() if lv == level and c == code and "error" not in r]
+            if pts:
+                a, cl = max(pts, key=lambda t: t[1])
+                lines.append(f"\n{level}, {code}: C_L,max = {cl:.4f} at α = {a:g}° (of {len(pts)} angles)")
+    return "\n".join(lines)
+
+
+def load_ladson() -> np.ndarray:
+    """Ladson (1988) ``(alpha, C_L, C_D)`` rows, all trips (TMR file)."""
+    rows = [ln.split(",") for ln in LADSON_FILE.read_text().splitlines() if ln and not ln.startswith(("#", "trip"))]
+    return np.array([[float(r[1]), float(r[2]), float(r[3])] for r in rows])
+
+
+def plot(records: dict, directory: Path = FIGURES) -> list[Path]:
+    """C_L(α) of both codes with the references; C_p and c_f of both codes at the highest incidence where both
+    converged (per level)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    directory.mkdir(parents=True, exist_ok=True)
+    out = []
+    fig, ax = plt.subplots(figsize=(6.5, 4.5))
+    styles = {"openfoam": ("OpenFOAM kOmegaSST", "s--"), "millfoil": ("millfoil SST", "o-")}
+    for level in sorted({k[0] for k in records}):
+        for code, (label, style) in styles.items():
+            pts = sorted((a, r["c_l"]) for (lv, a, c), r in records.items() if lv == level and c == code
+                         and "error" not in r)
+            if pts:
+                ax.plot(*zip(*pts, strict=True), style, ms=4, label=f"{label}, {level}")
+    lad = load_ladson()
+    ax.plot(lad[:, 0], lad[:, 1], "k^", ms=4, mfc="none", label="Ladson (1988), experiment")
+    ref = load_clcd()
+    ax.plot(list(ref), [v[0] for v in ref.values()], "r*", ms=10, label="TMR CFL3D SST (897×257)")
+    ax.set(xlabel="α (deg)", ylabel="C_L", title="NACA 0012, Re 6·10⁶, same C-mesh, no point vortex")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    out.append(directory / "naca0012_cl_alpha.png")
+    fig.savefig(out[-1], dpi=120)
+    plt.close(fig)
+    for level in sorted({k[0] for k in records}):
+        both = [a for (lv, a, c), r in records.items() if lv == level and c == "millfoil" and r.get("converged")
+                and records.get((lv, a, "openfoam"), {}).get("converged")]
+        if not both:
+            continue
+        a = max(both)
+        fig, axes = plt.subplots(1, 2, figsize=(11, 4))
+        for code, (label, _) in styles.items():
+            w = records[(level, a, code)]["wall"]
+            x, y = np.asarray(w["x"]), np.asarray(w["y"])
+            for surf, sel in (("upper", y > 0), ("lower", y <= 0)):
+                o = np.argsort(x[sel])
+                ls = "-" if code == "millfoil" else "--"
+                axes[0].plot(x[sel][o], -np.asarray(w["cp"])[sel][o], ls, label=f"{label}, {surf}")
+                axes[1].plot(x[sel][o], np.asarray(w["cf"])[sel][o], ls, label=f"{label}, {surf}")
+        axes[0].set(xlabel="x/c", ylabel="−C_p", title=f"{level}, α = {a:g}°")
+        axes[1].set(xlabel="x/c", ylabel="c_f", title=f"{level}, α = {a:g}° (c_f along the surface, LE→TE)",
+                    ylim=(-0.005, 0.02))
+        for axis in axes:
+            axis.grid(alpha=0.3)
+            axis.legend(fontsize=7)
+        fig.tight_layout()
+        out.append(directory / f"naca0012_{level}_cp_cf_alpha{a:g}.png")
+        fig.savefig(out[-1], dpi=120)
+        plt.close(fig)
+    return out
+
+
+# --------------------------------------------------------------------------------------------------- CLI
+def main(argv=None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--levels", nargs="+", default=["coarse"])
+    parser.add_argument("--alphas", nargs="+", type=float, default=list(ALPHAS))
+    parser.add_argument("--codes", nargs="+", default=["openfoam", "millfoil"], choices=["openfoam", "millfoil"])
+    parser.add_argument("--of-iterations", type=int, default=8000, help="simpleFoam iteration cap")
+    parser.add_argument("--u-gradient", default="Gauss linear", help="OpenFOAM gradient of linearUpwind U "
+                        "(e.g. 'cellLimited<Venkatakrishnan> Gauss linear 1')")
+    parser.add_argument("--of-alpha-u", type=float, default=0.9, help="simpleFoam U relaxation (SIMPLEC)")
+    parser.add_argument("--mf-iterations", type=int, default=6000, help="millfoil iteration cap")
+    parser.add_argument("--mf-seconds", type=float, default=None, help="millfoil wall-time cap per angle")
+    parser.add_argument("--work", type=Path, default=ROOT / "runs" / "bench_naca_openfoam")
+    parser.add_argument("--out", type=Path, default=None, help="JSON lines file (appended)")
+    parser.add_argument("--report", nargs="+", type=Path, default=None, help="JSONL files: print table, plot")
+    parser.add_argument("--no-install", action="store_true")
+    args = parser.parse_args(argv)
+    if args.report:
+        records = load_records(args.report)
+        print(report(records))
+        for path in plot(records):
+            print(f"wrote {path.relative_to(ROOT)}")
+        return
+    why = ensure_openfoam(not args.no_install) if "openfoam" in args.codes else None
+    print(f"# load average {os.getloadavg()[0]:.1f}, OMP_NUM_THREADS={os.environ.get('OMP_NUM_THREADS')}, "
+          f"{time.strftime('%Y-%m-%d %H:%M')}; OpenFOAM: {why or 'ok'}", flush=True)
+    for level in args.levels:
+        for alpha in args.alphas:
+            for code in args.codes:
+                case = args.work / level / f"alpha{alpha:g}"
+                if code == "openfoam":
+                    rec = {"error": why} if why else run_openfoam(case / "openfoam", level, alpha,
+                                                                      args.of_iterations, args.u_gradient,
+                                                                      args.of_alpha_u)
+                else:
+                    case.mkdir(parents=True, exist_ok=True)
+                    rec = run_millfoil(level, alpha, args.mf_iterations, case / "millfoil_state.npz", args.mf_seconds)
+                rec = {"level": level, "alpha": alpha, "code": code, **rec,
+                       "time": time.strftime("%Y-%m-%d %H:%M"), "load": round(os.getloadavg()[0], 1)}
+                if args.out:
+                    with open(args.out, "a") as fh:
+                        fh.write(json.dumps(rec) + "\n")
+                print(json.dumps({k: v for k, v in rec.items() if k != "wall"}
+                                 | {"x_sep": rec.get("wall", {}).get("x_sep")}), flush=True)
+
+
+if __name__ == "__main__":
+    main()

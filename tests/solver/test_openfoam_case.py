@@ -1,0 +1,95 @@
+"""bench/openfoam_case.py: the polyMesh written from a finite-volume mesh, and the field-file reader.
+
+No OpenFOAM needed: the checks are the invariants OpenFOAM's checkMesh tests (upper-triangular order,
+owner < neighbour, every closed cell's face vectors summing to zero with normals from owner to neighbour)
+and that boundary face i of a patch is face i of the millfoil group (the side-by-side compares per face).
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).parents[2] / "bench"))
+
+from openfoam_case import (  # noqa: E402
+    field_body,
+    nonuniform_vectors,
+    polymesh_arrays,
+    read_field,
+    write_file,
+    write_polymesh,
+)
+
+from solver.validation.meshes.naca_mesh import CMeshSpec, naca0012_cmesh  # noqa: E402
+
+SPEC = CMeshSpec(n_side=16, n_wake=8, ds_le=1e-2, ds_te=2e-2, first_cell=5e-3, growth=1.2, switch=0.02,
+                 far_growth=1.5, radius=20.0)
+
+
+def _mesh():
+    return naca0012_cmesh(SPEC, alpha_deg=10.0).mesh
+
+
+def _face_vectors(points, faces):
+    """Area vectors of planar polygons (Newell's formula), (nf, 3)."""
+    out = np.zeros((len(faces), 3))
+    for i, f in enumerate(faces):
+        p = points[f]
+        q = np.roll(p, -1, axis=0)
+        out[i] = 0.5 * np.cross(p, q).sum(axis=0)
+    return out
+
+
+def test_polymesh_order_orientation_and_closure():
+    m = _mesh()
+    a = polymesh_arrays(m)
+    ni = m.n_internal
+    own, nei = a["owner"], a["neighbour"]
+    assert len(nei) == ni and np.all(own[:ni] < nei)
+    assert np.all(np.diff(own[:ni]) >= 0)                                   # sorted by owner ...
+    same = own[1:ni] == own[:ni - 1]
+    assert np.all(np.diff(nei)[same] > 0)                                   # ... then by neighbour
+    sf = _face_vectors(a["points"], a["faces"])
+    centre = np.array([a["points"][f].mean(axis=0) for f in a["faces"]])
+    cell_centre = np.column_stack([m.centroid, np.full(m.n_cells, 0.005)])
+    # normals point from the owner's centre out through the face
+    assert np.all(np.einsum("ij,ij->i", sf, centre - cell_centre[own]) > 0)
+    net = np.zeros((m.n_cells, 3))
+    np.add.at(net, own, sf)
+    np.add.at(net, nei, -sf[:ni])
+    assert np.abs(net).max() < 1e-12 * np.abs(sf).max() * 10
+
+
+def test_patch_faces_follow_the_group_order():
+    m = _mesh()
+    a = polymesh_arrays(m)
+    for group, n, start in a["patches"]:
+        assert n == len(m.boundary[group])
+        xy = np.array([a["points"][f][:2, :2].mean(axis=0) for f in a["faces"][start:start + n]])
+        assert np.allclose(xy, m.face_centre[m.boundary[group]], atol=1e-12)
+    assert len(a["faces"]) == a["patches"][-1][2] + a["patches"][-1][1] + 2 * m.n_cells
+
+
+def test_write_polymesh_boundary_file(tmp_path):
+    m = _mesh()
+    write_polymesh(m, tmp_path, {"wall": "wall"})
+    text = (tmp_path / "constant/polyMesh/boundary").read_text()
+    assert "wall\n    {\n        type wall;" in text and "frontAndBack" in text and "type empty;" in text
+    assert f"nCells: {m.n_cells}" in (tmp_path / "constant/polyMesh/owner").read_text()
+
+
+def test_read_field_round_trip(tmp_path):
+    u = np.array([[1.0, 2.0], [3.0, -4.5], [0.0, 1e-9]])
+    body = field_body("[0 1 -1 0 0 0 0]", "(0 0 0)", {"wall": "type noSlip;"},
+                      "    inlet { type fixedValue; value uniform (1 0 0); }\n")
+    body = body.replace("internalField uniform (0 0 0)", "internalField " + nonuniform_vectors(u))
+    write_file(tmp_path, "0/U", "volVectorField", body)
+    internal, patches = read_field(tmp_path / "0/U", 3)
+    assert np.allclose(internal[:, :2], u) and np.allclose(internal[:, 2], 0)
+    assert np.allclose(patches["inlet"], [[1, 0, 0]]) and "wall" not in patches
+    write_file(tmp_path, "0/p", "volScalarField", field_body("[0 2 -2 0 0 0 0]", "0.25", {}))
+    p, _ = read_field(tmp_path / "0/p", 4)
+    assert np.allclose(p, 0.25) and p.shape == (4,)
