@@ -61,7 +61,7 @@ class Timers:
 
 def instrument(timers: Timers) -> None:
     """Wrap the functions of one outer iteration (in the namespaces that call them) with ``timers``."""
-    from solver import linalg, simple
+    from solver import linalg, momentum, simple
     from solver.boundary import BoundaryData
     from solver.turbulence import sst
 
@@ -73,6 +73,8 @@ def instrument(timers: Timers) -> None:
         setattr(sst, name, timers.wrap(name, getattr(sst, name)))
     for name in ("velocity", "pressure"):
         setattr(BoundaryData, name, timers.wrap(f"boundary {name}", getattr(BoundaryData, name)))
+    if hasattr(momentum.MomentumSystem, "solve"):
+        momentum.MomentumSystem.solve = timers.wrap("linear solve: momentum (u, v)", momentum.MomentumSystem.solve)
     linalg.LinearSystem.residual_norms = timers.wrap("residual_norms", linalg.LinearSystem.residual_norms)
     linalg.SolverSettings.solve = timers.wrap(lambda s, *a: f"linear solve: {s.name}", linalg.SolverSettings.solve)
     simple.outer_iteration = timers.wrap("outer_iteration (rest)", simple.outer_iteration)

@@ -128,3 +128,21 @@ def test_gauss_seidel_pair_equals_two_separate_solves(mesh):
     indptr, indices, _ = pattern.off_diagonal
     off = sp.csr_matrix((pattern.off_diagonal_values(upper, lower), indices, indptr), shape=(nc, nc))
     np.testing.assert_array_equal((off + sp.diags(diags[0])).toarray(), systems[0].A.toarray())
+
+
+def test_residual_norms_equal_numpy_form(mesh):
+    """:meth:`LinearSystem.residual_norms` (compiled) against its numpy form, to round-off (the 1-norms are
+    summed in another order); and the floor of a uniform field."""
+    from solver.linalg import FVPattern, LinearSystem
+
+    rng = np.random.default_rng(6)
+    pattern = FVPattern.from_mesh(mesh)
+    ni, nc = mesh.n_internal, mesh.n_cells
+    A = pattern.matrix(4.0 + rng.uniform(0, 1, nc), -rng.uniform(0.1, 1.0, ni), -rng.uniform(0.1, 1.0, ni))
+    for x in (rng.standard_normal(nc), np.full(nc, 2.0)):
+        system = LinearSystem(A, rng.standard_normal(nc), x)
+        ax = A @ x
+        axbar = np.asarray(A.sum(axis=1)).ravel() * x.mean()
+        norm = np.abs(ax - axbar).sum() + np.abs(system.b - axbar).sum()
+        ref = (np.abs(system.b - ax).sum(), max(norm, 1e-2 * np.abs(A.diagonal() * x).sum()))
+        np.testing.assert_allclose(system.residual_norms(), ref, rtol=1e-13)
