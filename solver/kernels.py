@@ -141,3 +141,28 @@ def residual_norms(indptr, indices, data, x, b, x_mean):
         n_ax += abs(ax - axbar)
         n_b += abs(b[i] - axbar)
     return r, n_ax, n_b, diag_x
+
+
+@njit(cache=True)
+def spalding_u_tau(u_t, y, nu, kappa, exp_kappa_b, halvings):
+    """Friction velocity ``(n,)`` from Spalding's law of the wall by bisection on ``u+`` per face
+    (:func:`solver.turbulence.closures.spalding_u_tau`, whose numpy form it follows operation by
+    operation): ``Re_y / u+ = u+ + e^(-kappa B) (e^(kappa u+) - 1 - kappa u+ - (kappa u+)²/2 - (kappa u+)³/6)``
+    with ``Re_y = u_t y / nu``, bracket ``(0, sqrt(Re_y) (1 + 1e-12)]``; ``exp_kappa_b`` = ``e^(-kappa B)``."""
+    out = np.empty(u_t.shape[0])
+    for f in range(u_t.shape[0]):
+        re_y = max(u_t[f] * y[f] / nu, 1e-300)
+        lo = 0.0
+        hi = np.sqrt(re_y) * (1.0 + 1e-12)
+        for _ in range(halvings):
+            mid = 0.5 * (lo + hi)
+            up = max(mid, 1e-300)
+            ku = kappa * up
+            g = re_y / up - (up + exp_kappa_b * (np.exp(ku) - 1.0 - ku - ku**2 / 2.0 - ku**3.0 / 6.0))
+            if g > 0:
+                lo = mid
+            else:
+                hi = mid
+        u_plus = 0.5 * (lo + hi)
+        out[f] = u_t[f] / max(u_plus, 1e-300) if re_y > 1e-200 else 0.0
+    return out

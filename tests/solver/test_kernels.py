@@ -146,3 +146,35 @@ def test_residual_norms_equal_numpy_form(mesh):
         norm = np.abs(ax - axbar).sum() + np.abs(system.b - axbar).sum()
         ref = (np.abs(system.b - ax).sum(), max(norm, 1e-2 * np.abs(A.diagonal() * x).sum()))
         np.testing.assert_allclose(system.residual_norms(), ref, rtol=1e-13)
+
+
+def spalding_numpy(u_t, y, nu, c):
+    """The vectorised numpy bisection (the reference of :func:`kernels.spalding_u_tau`)."""
+    re_y = np.maximum(np.asarray(u_t, float) * y / nu, 1e-300)
+    kap, eb = c.kappa, np.exp(-c.kappa * c.spalding_b)
+
+    def g(up):
+        ku = kap * up
+        return re_y / up - (up + eb * (np.exp(ku) - 1.0 - ku - ku**2 / 2.0 - ku**3 / 6.0))
+
+    lo = np.zeros_like(re_y)
+    hi = np.sqrt(re_y) * (1.0 + 1e-12)
+    for _ in range(60):
+        mid = 0.5 * (lo + hi)
+        pos = g(np.maximum(mid, 1e-300)) > 0
+        lo = np.where(pos, mid, lo)
+        hi = np.where(pos, hi, mid)
+    u_plus = 0.5 * (lo + hi)
+    return np.where(re_y > 1e-200, np.asarray(u_t, float) / np.maximum(u_plus, 1e-300), 0.0)
+
+
+def test_spalding_equals_numpy_form():
+    """Sublayer to log layer and a zero speed; equal to the numpy bisection up to the last bits of ``exp``
+    (numba's and numpy's may differ by an ulp on some machines; bitwise where they agree)."""
+    from solver.turbulence.closures import SSTConstants, spalding_u_tau
+
+    rng = np.random.default_rng(7)
+    y = 10.0 ** rng.uniform(-7, -2, 400)
+    u_t = np.concatenate([[0.0], 10.0 ** rng.uniform(-3, 1.5, 399)])
+    c = SSTConstants()
+    np.testing.assert_allclose(spalding_u_tau(u_t, y, 1e-6, c), spalding_numpy(u_t, y, 1e-6, c), rtol=1e-14, atol=0)
