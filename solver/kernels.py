@@ -166,3 +166,27 @@ def spalding_u_tau(u_t, y, nu, kappa, exp_kappa_b, halvings):
         u_plus = 0.5 * (lo + hi)
         out[f] = u_t[f] / max(u_plus, 1e-300) if re_y > 1e-200 else 0.0
     return out
+
+
+@njit(cache=True)
+def csr_residual(indptr, indices, data, x, b):
+    """``b - A x`` for a CSR matrix ``A`` (each row's products summed in column order, as scipy's)."""
+    r = np.empty(b.shape[0])
+    for i in range(b.shape[0]):
+        s = 0.0
+        for jj in range(indptr[i], indptr[i + 1]):
+            s += data[jj] * x[indices[jj]]
+        r[i] = b[i] - s
+    return r
+
+
+@njit(cache=True)
+def csr_matvec(indptr, indices, data, x, n_rows):
+    """``A x`` for a CSR matrix ``A`` with ``n_rows`` rows (sums in column order, as scipy's)."""
+    y = np.empty(n_rows)
+    for i in range(n_rows):
+        s = 0.0
+        for jj in range(indptr[i], indptr[i + 1]):
+            s += data[jj] * x[indices[jj]]
+        y[i] = s
+    return y

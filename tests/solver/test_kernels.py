@@ -178,3 +178,28 @@ def test_spalding_equals_numpy_form():
     u_t = np.concatenate([[0.0], 10.0 ** rng.uniform(-3, 1.5, 399)])
     c = SSTConstants()
     np.testing.assert_allclose(spalding_u_tau(u_t, y, 1e-6, c), spalding_numpy(u_t, y, 1e-6, c), rtol=1e-14, atol=0)
+
+
+@pytest.mark.parametrize("hierarchy", ["ruge_stuben", "smoothed_aggregation"])
+def test_amg_cg_equals_scipy_cg_with_pyamg_cycle(hierarchy):
+    """:func:`preconditioned_cg` with :class:`VCycle` (compiled products) gives bitwise scipy's ``cg``
+    preconditioned by pyamg's own V-cycle, on a pressure-like FV matrix with several AMG levels."""
+    import scipy.sparse.linalg as spla
+
+    from solver.linalg import AMG_HIERARCHIES, FVPattern, LinearSystem, VCycle, _amg_cg, _seeded
+
+    m = square_mesh(24, triangles="checker", strength=0.4, distort=0.3, seed=5)
+    rng = np.random.default_rng(8)
+    c = rng.uniform(0.5, 2.0, m.n_internal)
+    diag = np.bincount(m.owner[:m.n_internal], c, m.n_cells) + np.bincount(m.neighbour[:m.n_internal], c, m.n_cells)
+    diag[0] *= 2.0                                               # pinned, as the p' system without outlet
+    A = FVPattern.from_mesh(m).matrix(diag, -c, -c)
+    system = LinearSystem(A, rng.standard_normal(m.n_cells), np.zeros(m.n_cells))
+    ml = _seeded(AMG_HIERARCHIES[hierarchy], A)
+    assert len(ml.levels) >= 3
+    state = {}
+    x, stats = _amg_cg(system, 1e-6, 50, state, hierarchy=hierarchy)
+    assert isinstance(state["precondition"], VCycle) == (hierarchy == "ruge_stuben")
+    ref, info = spla.cg(A, system.b, x0=system.x0, rtol=1e-6, atol=0.0, maxiter=50, M=ml.aspreconditioner(cycle="V"))
+    assert info == 0 and 1 < stats.iterations < 50
+    np.testing.assert_array_equal(x, ref)
