@@ -62,14 +62,21 @@ def test_established_oscillation_stops_with_the_classification_of_the_last_windo
     assert established(_hist(x[:550]), 550, CFG) is None                        # before 3 windows
 
 
-def test_an_oscillation_or_drift_that_would_settle_before_max_iter_goes_on_a_steady_drift_stops():
+def test_an_oscillation_with_a_settled_mean_stops_even_if_it_would_decay_before_max_iter():
     it = np.arange(600)
     decaying = 25.0 + 0.3 * np.exp(-it / 150.0) * np.sin(2 * np.pi * it / 37.0)     # amplitude halves
-    assert established(_hist(decaying), 600, CFG) is None
+    status, message, cls = established(_hist(decaying), 600, CFG)
+    assert status == "oscillating" and abs(cls.mean["c_max"] - 25.0) <= 1e-3 * 25.0   # the mean is final
+    slow = 25.0 + 0.05 * np.exp(-it / 400.0) * np.sin(2 * np.pi * it / 37.0)   # -40 % per window
+    assert established(_hist(slow), 600, CFG)[0] == "oscillating"
+    moving = decaying + 0.3 * np.exp(-it / 300.0)             # the mean still moves by 2e-3 per window
+    assert established(_hist(moving), 600, CFG) is None
+
+
+def test_an_oscillation_or_drift_that_would_settle_before_max_iter_goes_on_a_steady_drift_stops():
+    it = np.arange(600)
     creeping = 25.0 - 0.5 * np.exp(-it / 100.0)                                       # converging slowly
     assert established(_hist(creeping), 600, CFG) is None
-    slow = 25.0 + 0.05 * np.exp(-it / 400.0) * np.sin(2 * np.pi * it / 37.0)   # -40 % per window: settles
-    assert established(_hist(slow), 600, CFG) is None
     drift = 25.0 + 2e-3 * it
     status, _, cls = established(_hist(drift), 600, CFG)
     assert status == "not_converged" and cls.status == "not_converged"
