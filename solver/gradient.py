@@ -12,6 +12,7 @@ from collections.abc import Callable
 import numpy as np
 
 from .fvmesh import FVMesh
+from .kernels import CompiledCSR
 
 
 def extended(phi: np.ndarray, phi_b: np.ndarray) -> np.ndarray:
@@ -38,9 +39,10 @@ def ls_gradient(mesh: FVMesh, phi: np.ndarray, phi_b: np.ndarray) -> np.ndarray:
 
 
 def ls_operators(mesh: FVMesh):
-    """The least-squares gradient as two sparse matrices (built once per mesh, cached in ``mesh.info``):
-    ``(cell (2 nc, nc), boundary (2 nc, nb))``, row ``2 c + i`` giving direction ``i`` of cell ``c``'s
-    gradient from the cell values and from the boundary-face values, 1/m.
+    """The least-squares gradient as two sparse matrices (built once per mesh, cached in ``mesh.info``;
+    :class:`solver.kernels.CompiledCSR`, whose ``matrix`` is the scipy CSR): ``(cell (2 nc, nc), boundary
+    (2 nc, nb))``, row ``2 c + i`` giving direction ``i`` of cell ``c``'s gradient from the cell values and
+    from the boundary-face values, 1/m.
 
     Why: the gradient is linear in the values, and one compiled sparse product replaces the gather of the
     ``(nc, 4)`` stencil values and an ``einsum`` over it (about 5x faster per call, ~11 calls per outer
@@ -62,7 +64,7 @@ def ls_operators(mesh: FVMesh):
     full = sp.csr_matrix((v, (r, c)), shape=(2 * nc, nc + nb))
     full.sum_duplicates()
     full.eliminate_zeros()
-    out = (full[:, :nc].tocsr(), full[:, nc:].tocsr())
+    out = (CompiledCSR(full[:, :nc]), CompiledCSR(full[:, nc:]))
     mesh.info["ls_operators"] = out
     return out
 
@@ -154,7 +156,7 @@ def face_operators(mesh: FVMesh) -> dict:
     ``"linear"`` ``(ni, nc)`` with ``w`` and ``1 - w`` on the owner and neighbour columns, and
     ``"corrected"`` ``(ni, 3 nc)`` acting on ``concat(phi, d phi/dx, d phi/dy)``: the linear operator and
     the reconstruction terms ``w (x_f - x_P)`` and ``(1 - w) (x_f - x_N)``; and ``"d_length"`` ``(nf,)``,
-    ``|d|`` of every face, m. Why: a compiled sparse product
+    ``|d|`` of every face, m. Why: a compiled sparse product (:class:`solver.kernels.CompiledCSR`)
     instead of gathers, ``einsum`` and temporaries per call (the face velocity is built twice per
     iteration)."""
     cached = mesh.info.get("face_operators")
@@ -172,7 +174,8 @@ def face_operators(mesh: FVMesh) -> dict:
     ro, rn = w[:, None] * (xf - mesh.centroid[o]), (1.0 - w)[:, None] * (xf - mesh.centroid[n])
     parts = [linear] + [sp.csr_matrix((np.concatenate([ro[:, d], rn[:, d]]), (rows, cols)), shape=(ni, nc))
                         for d in range(2)]
-    out = {"linear": linear, "corrected": sp.hstack(parts, format="csr"), "d_length": np.linalg.norm(mesh.d, axis=1)}
+    out = {"linear": CompiledCSR(linear), "corrected": CompiledCSR(sp.hstack(parts, format="csr")),
+           "d_length": np.linalg.norm(mesh.d, axis=1)}
     mesh.info["face_operators"] = out
     return out
 
@@ -314,7 +317,7 @@ def _face_average_rows(mesh: FVMesh, faces: np.ndarray):
     cache = mesh.info.setdefault("face_average_rows", {})
     key = faces.tobytes()
     if key not in cache:
-        cache[key] = quadratic_operators(mesh)["face"][faces]
+        cache[key] = CompiledCSR(quadratic_operators(mesh)["face"][faces])
     return cache[key]
 
 
@@ -348,5 +351,5 @@ def _boundary_hessians(mesh: FVMesh, faces: np.ndarray) -> tuple:
     key = faces.tobytes()
     if key not in cache:
         owners = mesh.owner[mesh.n_internal + faces]
-        cache[key] = tuple(h[owners] for h in quadratic_operators(mesh)["hess"])
+        cache[key] = tuple(CompiledCSR(h[owners]) for h in quadratic_operators(mesh)["hess"])
     return cache[key]

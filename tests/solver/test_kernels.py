@@ -203,3 +203,15 @@ def test_amg_cg_equals_scipy_cg_with_pyamg_cycle(hierarchy):
     ref, info = spla.cg(A, system.b, x0=system.x0, rtol=1e-6, atol=0.0, maxiter=50, M=ml.aspreconditioner(cycle="V"))
     assert info == 0 and 1 < stats.iterations < 50
     np.testing.assert_array_equal(x, ref)
+
+
+@pytest.mark.parametrize("columns", [None, 1, 2, 6])
+def test_compiled_csr_product_equals_scipy(mesh, columns):
+    from solver.gradient import face_operators
+    from solver.kernels import CompiledCSR
+
+    op = face_operators(mesh)["corrected"]
+    assert isinstance(op, CompiledCSR)
+    rng = np.random.default_rng(9)
+    x = rng.standard_normal(op.shape[1] if columns is None else (op.shape[1], columns))
+    np.testing.assert_array_equal(op @ x, op.matrix @ x)
