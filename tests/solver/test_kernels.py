@@ -180,29 +180,64 @@ def test_spalding_equals_numpy_form():
     np.testing.assert_allclose(spalding_u_tau(u_t, y, 1e-6, c), spalding_numpy(u_t, y, 1e-6, c), rtol=1e-14, atol=0)
 
 
-@pytest.mark.parametrize("hierarchy", ["ruge_stuben", "smoothed_aggregation"])
-def test_amg_cg_equals_scipy_cg_with_pyamg_cycle(hierarchy):
-    """:func:`preconditioned_cg` with :class:`VCycle` (compiled products) gives bitwise scipy's ``cg``
-    preconditioned by pyamg's own V-cycle, on a pressure-like FV matrix with several AMG levels."""
-    import scipy.sparse.linalg as spla
+def pressure_like_system(n=24):
+    """A pinned FV Laplacian (as the p' system without an outlet) on a skewed mixed mesh, random rhs."""
+    from solver.linalg import FVPattern, LinearSystem
 
-    from solver.linalg import AMG_HIERARCHIES, FVPattern, LinearSystem, VCycle, _amg_cg, _seeded
-
-    m = square_mesh(24, triangles="checker", strength=0.4, distort=0.3, seed=5)
+    m = square_mesh(n, triangles="checker", strength=0.4, distort=0.3, seed=5)
     rng = np.random.default_rng(8)
     c = rng.uniform(0.5, 2.0, m.n_internal)
     diag = np.bincount(m.owner[:m.n_internal], c, m.n_cells) + np.bincount(m.neighbour[:m.n_internal], c, m.n_cells)
-    diag[0] *= 2.0                                               # pinned, as the p' system without outlet
+    diag[0] *= 2.0
     A = FVPattern.from_mesh(m).matrix(diag, -c, -c)
-    system = LinearSystem(A, rng.standard_normal(m.n_cells), np.zeros(m.n_cells))
-    ml = _seeded(AMG_HIERARCHIES[hierarchy], A)
-    assert len(ml.levels) >= 3
+    return LinearSystem(A, rng.standard_normal(m.n_cells), np.zeros(m.n_cells))
+
+
+def test_v_cycle_equals_pyamg_cycle_to_round_off():
+    """:class:`VCycle` (compiled products and sweeps) against pyamg's own V-cycle with symmetric
+    Gauss–Seidel smoothers: the same preconditioner up to the rounding of the sweeps."""
+    from solver.linalg import AMG_HIERARCHIES, VCycle, _seeded
+
+    system = pressure_like_system()
+    ml = _seeded(AMG_HIERARCHIES["ruge_stuben"], system.A)
+    assert len(ml.levels) >= 3 and VCycle.applies(ml)
+    np.testing.assert_allclose(VCycle(ml)(system.b), ml.aspreconditioner(cycle="V").matvec(system.b), rtol=1e-11,
+                               atol=1e-12 * np.abs(system.b).max())
+
+
+@pytest.mark.parametrize("hierarchy", ["ruge_stuben", "smoothed_aggregation"])
+def test_preconditioned_cg_equals_scipy_cg(hierarchy):
+    """:func:`preconditioned_cg` gives bitwise scipy's ``cg`` with the same preconditioner, and
+    :func:`_amg_cg` picks :class:`VCycle` for Ruge–Stüben, pyamg's cycle for smoothed aggregation."""
+    import scipy.sparse.linalg as spla
+
+    from solver.linalg import AMG_HIERARCHIES, VCycle, _amg_cg, _seeded
+
+    system = pressure_like_system()
     state = {}
     x, stats = _amg_cg(system, 1e-6, 50, state, hierarchy=hierarchy)
     assert isinstance(state["precondition"], VCycle) == (hierarchy == "ruge_stuben")
-    ref, info = spla.cg(A, system.b, x0=system.x0, rtol=1e-6, atol=0.0, maxiter=50, M=ml.aspreconditioner(cycle="V"))
+    M = spla.LinearOperator(system.A.shape, state["precondition"])
+    ref, info = spla.cg(system.A, system.b, x0=system.x0, rtol=1e-6, atol=0.0, maxiter=50, M=M)
     assert info == 0 and 1 < stats.iterations < 50
     np.testing.assert_array_equal(x, ref)
+    assert len(_seeded(AMG_HIERARCHIES[hierarchy], system.A).levels) >= 3
+
+
+def test_gauss_seidel_sweeps_equal_pyamg_to_round_off(mesh):
+    """:func:`kernels.gauss_seidel_sweeps` on :func:`kernels.split_diagonal` against pyamg's symmetric
+    sweeps (:func:`solver.linalg.symmetric_gauss_seidel`), with a zero-diagonal row left unchanged."""
+    from solver.kernels import gauss_seidel_sweeps, split_diagonal
+    from solver.linalg import symmetric_gauss_seidel, unsigned_csr
+
+    system = pressure_like_system(10)
+    A = system.A.copy()
+    A[3, 3] = 0.0                                   # a row pyamg skips
+    x_ref, x = np.full(A.shape[0], 0.5), np.full(A.shape[0], 0.5)
+    symmetric_gauss_seidel(A, x_ref, system.b, 3)
+    gauss_seidel_sweeps(*split_diagonal(*unsigned_csr(A)), x, system.b, 3)
+    assert x[3] == 0.5
+    np.testing.assert_allclose(x, x_ref, rtol=1e-12, atol=1e-14)
 
 
 @pytest.mark.parametrize("columns", [None, 1, 2, 6])
