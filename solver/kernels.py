@@ -85,31 +85,28 @@ def cap_quadratic_correction(lin, face_mean, faces, owner, neighbour, grad, d_le
 
 
 @njit(cache=True)
-def symmetric_gauss_seidel_pair(indptr, indices, data, diag_x, diag_y, x, y, b_x, b_y, sweeps):
-    """``sweeps`` symmetric Gauss–Seidel sweeps (forward, then backward) on the two systems
+def symmetric_gauss_seidel_pair(indptr, indices, data, inv_diag_x, inv_diag_y, x, y, b_x, b_y, sweeps):
+    """``sweeps`` symmetric Gauss–Seidel sweeps (rows ``0..n-1``, then ``n-1..0``) on the two systems
     ``(D_x + O) x = b_x`` and ``(D_y + O) y = b_y`` that share their off-diagonal part ``O`` (CSR arrays
-    ``indptr, indices, data``, columns in increasing order, no diagonal entry) and differ in the diagonal
-    ``D`` (the u and v momentum systems); ``x``, ``y`` updated in place. Row by row the arithmetic of pyamg's
-    ``gauss_seidel`` on each full matrix (the off-diagonal products summed in column order, then
-    ``(b - sum) / diagonal``), so the result is bitwise that of two separate solves; the two systems in
-    one pass read the matrix once and interleave two independent dependency chains (2x faster).
-    (One loop over ``2 n`` steps, rows ``0..n-1`` then ``n-1..0``: a row update in a helper function
-    was not inlined and ran 4x slower.)"""
+    ``indptr, indices, data``, no diagonal entry) and differ in the diagonal ``D`` (the u and v momentum
+    systems), ``1 / D`` given (0: row left unchanged); ``x``, ``y`` updated in place. The update of
+    :func:`gauss_seidel_sweeps` for both systems in one pass: the matrix is read once and two independent
+    dependency chains interleave (the pair costs about one pyamg solve; equal to it to round-off)."""
     n = x.shape[0]
     for _ in range(sweeps):
         for step in range(2 * n):
             i = step if step < n else 2 * n - 1 - step
-            rx = 0.0
-            ry = 0.0
+            rx = b_x[i]
+            ry = b_y[i]
             for jj in range(indptr[i], indptr[i + 1]):
                 a = data[jj]
                 j = indices[jj]
-                rx += a * x[j]
-                ry += a * y[j]
-            if diag_x[i] != 0.0:
-                x[i] = (b_x[i] - rx) / diag_x[i]
-            if diag_y[i] != 0.0:
-                y[i] = (b_y[i] - ry) / diag_y[i]
+                rx -= a * x[j]
+                ry -= a * y[j]
+            if inv_diag_x[i] != 0.0:
+                x[i] = rx * inv_diag_x[i]
+            if inv_diag_y[i] != 0.0:
+                y[i] = ry * inv_diag_y[i]
 
 
 @njit(cache=True)
