@@ -320,6 +320,24 @@ def wall_rms(a: dict, b: dict, key: str) -> float:
     return float(np.sqrt(np.mean((np.asarray(a["wall"][key]) - np.asarray(b["wall"][key])) ** 2)))
 
 
+#: C_L spread over the last :data:`WINDOW` iterations below which a run that stopped at its cap counts as
+#: stationary (millfoil's own C_L test, :class:`solver.validation.naca0012.Convergence` ``cl_tol``).
+STATIONARY_SPREAD = 5e-4
+
+
+def convergence_class(r: dict) -> str:
+    """``converged`` (the code's own test met), ``stationary`` (stopped at the cap with C_L spread below
+    :data:`STATIONARY_SPREAD` over the last :data:`WINDOW` iterations) or ``oscillating`` (larger spread)."""
+    if r.get("converged"):
+        return "converged"
+    return "stationary" if r["cl_spread_window"] < STATIONARY_SPREAD else "oscillating"
+
+
+def lift(r: dict) -> float:
+    """C_L of a record: the last value, or the window mean of an oscillating run."""
+    return r["cl_mean_window"] if convergence_class(r) == "oscillating" else r["c_l"]
+
+
 def fmt(v, spec: str) -> str:
     return "—" if v is None else format(v, spec)
 
@@ -328,9 +346,9 @@ def report(records: dict) -> str:
     """Markdown table per level and angle (both codes, the CFL3D SST reference at 0 and 10 deg) and the angle of
     C_L,max per code."""
     ref = load_clcd()
-    lines = ["| level | α | code | C_L | C_D | C_max | x_sep/c | iterations (status) | C_L spread 200 it | s "
-             "| ΔC_L % | ΔC_D % | RMS ΔC_p | RMS Δc_f | CFL3D C_L / C_D |",
-             "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
+    lines = ["| level | α | code | C_L | C_D | C_max | x_sep/c | iterations (class) | C_L spread 200 it | s "
+             "| ΔC_L % | ΔC_D % | RMS ΔC_p | RMS Δc_f | CFL3D C_L / C_D | Ladson C_L / C_D |",
+             "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
     levels = sorted({k[0] for k in records}, key=["coarse", "medium", "fine"].index)
     for level in levels:
         for a in sorted({k[1] for k in records if k[0] == level}):
@@ -340,27 +358,45 @@ def report(records: dict) -> str:
                     continue
                 diff = ["", "", "", ""]
                 if code == "millfoil" and of is not None and "error" not in of:
-                    diff = [f"{100 * (r['c_l'] / of['c_l'] - 1):+.2f}" if abs(of["c_l"]) > 1e-3
-                            else f"{r['c_l'] - of['c_l']:+.1e} abs", f"{100 * (r['c_d'] / of['c_d'] - 1):+.2f}",
+                    diff = [f"{100 * (lift(r) / lift(of) - 1):+.2f}" if abs(lift(of)) > 2e-2
+                            else f"{lift(r) - lift(of):+.1e} abs", f"{100 * (r['c_d'] / of['c_d'] - 1):+.2f}",
                             f"{wall_rms(r, of, 'cp'):.4f}", f"{wall_rms(r, of, 'cf'):.2e}"]
                 refs = f"{ref[a][0]:.4f} / {ref[a][1]:.5f}" if a in ref and code == "OpenFOAM" else ""
+                lad = ladson_at(a) if code == "OpenFOAM" else None
+                refs += " | " + ("" if lad is None else f"{lad[0]:.4f} / {lad[1]:.5f}")
                 lines.append(
-                    f"| {level} | {a:g} | {code} | {r['c_l']:.4f} | {r['c_d']:.5f} | {r['c_max']:.3f} | "
-                    f"{fmt(r['wall']['x_sep'], '.3f')} | {r['iterations']} ({r['status']}) | "
+                    f"| {level} | {a:g} | {code} | {lift(r):.4f} | {r['c_d']:.5f} | {r['c_max']:.3f} | "
+                    f"{fmt(r['wall']['x_sep'], '.3f')} | {r['iterations']} ({convergence_class(r)}) | "
                     f"{r['cl_spread_window']:.1e} | {fmt(r.get('seconds'), '.0f')} | " + " | ".join(diff)
                     + f" | {refs} |")
         for code in ("openfoam", "millfoil"):
-            pts = [(a, r["c_l"]) for (lv, a, c), r in records.items() if lv == level and c == code and "error" not in r]
+            pts = [(a, lift(r)) for (lv, a, c), r in records.items() if lv == level and c == code and "error" not in r]
             if pts:
                 a, cl = max(pts, key=lambda t: t[1])
                 lines.append(f"\n{level}, {code}: C_L,max = {cl:.4f} at α = {a:g}° (of {len(pts)} angles)")
     return "\n".join(lines)
 
 
-def load_ladson() -> np.ndarray:
-    """Ladson (1988) ``(alpha, C_L, C_D)`` rows, all trips (TMR file)."""
-    rows = [ln.split(",") for ln in LADSON_FILE.read_text().splitlines() if ln and not ln.startswith(("#", "trip"))]
-    return np.array([[float(r[1]), float(r[2]), float(r[3])] for r in rows])
+def ladson_at(alpha_deg: float) -> tuple[float, float] | None:
+    """Ladson's C_L, C_D at ``alpha_deg``: the mean over the three trip series of each one's linear
+    interpolation; None outside the measured range of any series."""
+    rows = load_ladson_trips()
+    vals = []
+    for series in rows.values():
+        if not series[0, 0] <= alpha_deg <= series[-1, 0]:
+            return None
+        vals.append([np.interp(alpha_deg, series[:, 0], series[:, j]) for j in (1, 2)])
+    return tuple(np.mean(vals, axis=0))
+
+
+def load_ladson_trips() -> dict[str, np.ndarray]:
+    """Ladson (1988) ``{trip: (alpha, C_L, C_D) rows sorted by alpha}`` (TMR file)."""
+    out: dict[str, list] = {}
+    for ln in LADSON_FILE.read_text().splitlines():
+        if ln and not ln.startswith(("#", "trip")):
+            r = ln.split(",")
+            out.setdefault(r[0], []).append([float(v) for v in r[1:4]])
+    return {k: np.array(sorted(v)) for k, v in out.items()}
 
 
 def plot(records: dict, directory: Path = FIGURES) -> list[Path]:
@@ -377,11 +413,11 @@ def plot(records: dict, directory: Path = FIGURES) -> list[Path]:
     styles = {"openfoam": ("OpenFOAM kOmegaSST", "s--"), "millfoil": ("millfoil SST", "o-")}
     for level in sorted({k[0] for k in records}):
         for code, (label, style) in styles.items():
-            pts = sorted((a, r["c_l"]) for (lv, a, c), r in records.items() if lv == level and c == code
+            pts = sorted((a, lift(r)) for (lv, a, c), r in records.items() if lv == level and c == code
                          and "error" not in r)
             if pts:
                 ax.plot(*zip(*pts, strict=True), style, ms=4, label=f"{label}, {level}")
-    lad = load_ladson()
+    lad = np.vstack(list(load_ladson_trips().values()))
     ax.plot(lad[:, 0], lad[:, 1], "k^", ms=4, mfc="none", label="Ladson (1988), experiment")
     ref = load_clcd()
     ax.plot(list(ref), [v[0] for v in ref.values()], "r*", ms=10, label="TMR CFL3D SST (897×257)")
@@ -393,8 +429,9 @@ def plot(records: dict, directory: Path = FIGURES) -> list[Path]:
     fig.savefig(out[-1], dpi=120)
     plt.close(fig)
     for level in sorted({k[0] for k in records}):
-        both = [a for (lv, a, c), r in records.items() if lv == level and c == "millfoil" and r.get("converged")
-                and records.get((lv, a, "openfoam"), {}).get("converged")]
+        both = [a for (lv, a, c), r in records.items() if lv == level and c == "millfoil" and "error" not in r
+                and convergence_class(r) != "oscillating" and (lv, a, "openfoam") in records
+                and convergence_class(records[(lv, a, "openfoam")]) != "oscillating"]
         if not both:
             continue
         a = max(both)
