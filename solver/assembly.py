@@ -22,6 +22,7 @@ import numpy as np
 
 from .fvmesh import FVMesh
 from .gradient import interpolate_linear, limited_gradient
+from .kernels import dot_last
 
 
 @dataclass(frozen=True)
@@ -79,7 +80,7 @@ def non_orthogonal_diffusion(mesh: FVMesh, gamma, grad: np.ndarray) -> np.ndarra
     """``Gamma_f grad(phi)_f·T_f`` per internal face ``(ni, ...)``, the face gradient interpolated linearly
     from the cell gradients ``grad``; ``gamma`` a float or ``(ni,)``."""
     ni = mesh.n_internal
-    g_t = np.einsum("f...d,fd->f...", interpolate_linear(mesh, grad), mesh.t_vec[:ni])
+    g_t = dot_last(interpolate_linear(mesh, grad), mesh.t_vec[:ni])
     if np.ndim(gamma):
         gamma = np.reshape(gamma, (-1,) + (1,) * (g_t.ndim - 1))
     return gamma * g_t

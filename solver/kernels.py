@@ -267,3 +267,40 @@ def gauss_seidel_sweeps(indptr, indices, data, inv_diag, x, b, sweeps):
                 for jj in range(indptr[i], indptr[i + 1]):
                     r -= data[jj] * x[indices[jj]]
                 x[i] = r * inv_diag[i]
+
+
+@njit(cache=True)
+def _dot_last(a, b):
+    """``out[f, k] = a[f, k, 0] b[f, 0] + a[f, k, 1] b[f, 1]`` for ``a (n, m, 2)``, ``b (n, 2)``."""
+    out = np.empty((a.shape[0], a.shape[1]))
+    for f in range(a.shape[0]):
+        b0 = b[f, 0]
+        b1 = b[f, 1]
+        for k in range(a.shape[1]):
+            out[f, k] = a[f, k, 0] * b0 + a[f, k, 1] * b1
+    return out
+
+
+def dot_last(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``sum_d a[f, ..., d] b[f, d]`` ``(n, ...)`` for ``a (n, ..., 2)`` and ``b (n, 2)``: numpy's
+    ``einsum("f...d,fd->f...", a, b)`` (the same two products and one sum per entry, bitwise) without its
+    per-call parsing and its slow inner loop over a length-2 axis (5-10x faster on the face arrays)."""
+    a3 = a.reshape(a.shape[0], -1, 2)
+    return _dot_last(a3, b).reshape(a.shape[:-1])
+
+
+@njit(cache=True)
+def velocity_invariants(grad):
+    """``(S², Omega²)`` ``(nc,)`` from ``grad (nc, 2, 2)``: ``2 S_ij S_ij`` and ``2 W_ij W_ij`` with ``S, W``
+    the symmetric and antisymmetric parts (:func:`solver.turbulence.closures.velocity_invariants`); the four
+    squares summed in pairs, as numpy's ``einsum`` over the contiguous 2 x 2 block."""
+    n = grad.shape[0]
+    s2 = np.empty(n)
+    w2 = np.empty(n)
+    for c in range(n):
+        g00, g01, g10, g11 = grad[c, 0, 0], grad[c, 0, 1], grad[c, 1, 0], grad[c, 1, 1]
+        s00, s01, s10, s11 = 0.5 * (g00 + g00), 0.5 * (g01 + g10), 0.5 * (g10 + g01), 0.5 * (g11 + g11)
+        w00, w01, w10, w11 = 0.5 * (g00 - g00), 0.5 * (g01 - g10), 0.5 * (g10 - g01), 0.5 * (g11 - g11)
+        s2[c] = 2.0 * ((s00 * s00 + s01 * s01) + (s10 * s10 + s11 * s11))
+        w2[c] = 2.0 * ((w00 * w00 + w01 * w01) + (w10 * w10 + w11 * w11))
+    return s2, w2

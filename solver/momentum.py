@@ -30,7 +30,7 @@ from .assembly import deferred_correction, non_orthogonal_diffusion, scatter_fac
 from .boundary import FIXED, SYMMETRY, ZERO_GRADIENT, BoundaryData
 from .fvmesh import FVMesh
 from .gradient import interpolate_linear
-from .kernels import symmetric_gauss_seidel_pair
+from .kernels import dot_last, symmetric_gauss_seidel_pair
 from .linalg import FVPattern, LinearSystem, SolverSettings
 
 
@@ -97,8 +97,7 @@ def momentum_system(mesh: FVMesh, pattern: FVPattern, bnd: BoundaryData, u: np.n
     face = deferred_correction(mesh, flux, grad_u_ho)            # F (u_HO - u_UD)
     if variable:
         g_f = interpolate_linear(mesh, grad_u)
-        face -= mu_i[:, None] * (np.einsum("fcd,fd->fc", g_f, mesh.t_vec[:ni])
-                                 + np.einsum("fdc,fd->fc", g_f, mesh.sf[:ni]))
+        face -= mu_i[:, None] * (dot_last(g_f, mesh.t_vec[:ni]) + dot_last(np.swapaxes(g_f, 1, 2), mesh.sf[:ni]))
     else:
         face -= non_orthogonal_diffusion(mesh, mu, grad_u)
     src = scatter_face_sources(mesh, src, face)

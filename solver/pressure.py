@@ -20,7 +20,7 @@ import numpy as np
 from .boundary import FIXED, ZERO_GRADIENT, BoundaryData
 from .fvmesh import FVMesh
 from .gradient import boundary_face_curvature, face_average, face_operators, interpolate_corrected, interpolate_linear
-from .kernels import cap_quadratic_correction
+from .kernels import cap_quadratic_correction, dot_last
 from .linalg import FVPattern, LinearSystem
 
 #: Cap of the quadratic correction of the face velocity, as a fraction of the linear variation
@@ -100,8 +100,8 @@ def predicted_velocity_flux(mesh: FVMesh, bnd: BoundaryData, u: np.ndarray, u_b:
     """``rho ū_f·S`` on all faces (boundary: ``rho u_b·S``), kg/(s m); ``ū_f`` from :func:`face_velocity`
     with the velocity gradient ``grad_u (nc, 2, 2)``."""
     ni = mesh.n_internal
-    fi = rho * np.einsum("ij,ij->i", face_velocity(mesh, u, u_b, grad_u), mesh.sf[:ni])
-    fb = rho * np.einsum("ij,ij->i", outflow_face_velocity(mesh, bnd, u, u_b, grad_u), mesh.sf[ni:])
+    fi = rho * dot_last(face_velocity(mesh, u, u_b, grad_u), mesh.sf[:ni])
+    fb = rho * dot_last(outflow_face_velocity(mesh, bnd, u, u_b, grad_u), mesh.sf[ni:])
     return np.concatenate([fi, fb])
 
 
@@ -120,8 +120,8 @@ def rhie_chow_flux(mesh: FVMesh, bnd: BoundaryData, u: np.ndarray, u_b: np.ndarr
     e = mesh.sf - mesh.t_vec
     dbar = interpolate_linear(mesh, r_au)
     gbar = interpolate_linear(mesh, grad_p)
-    fi = rho * (np.einsum("ij,ij->i", face_velocity(mesh, u, u_b, grad_u), mesh.sf[:ni])
-                - dbar * (mesh.diff_coeff[:ni] * (p[n] - p[o]) - np.einsum("ij,ij->i", gbar, e[:ni])))
+    fi = rho * (dot_last(face_velocity(mesh, u, u_b, grad_u), mesh.sf[:ni])
+                - dbar * (mesh.diff_coeff[:ni] * (p[n] - p[o]) - dot_last(gbar, e[:ni])))
     ob = mesh.owner[ni:]
     kind = bnd.velocity_kind
     fb_out = rho * (np.einsum("ij,ij->i", outflow_face_velocity(mesh, bnd, u, u_b, grad_u), mesh.sf[ni:])

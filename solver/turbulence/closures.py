@@ -12,6 +12,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .. import kernels
+from ..kernels import dot_last
+
 #: Product default inlet turbulence intensity (5 %) and eddy-to-molecular viscosity ratio (blades).
 DEFAULT_INTENSITY = 0.05
 DEFAULT_VISCOSITY_RATIO = 10.0
@@ -58,7 +61,7 @@ def blend(f1: np.ndarray, inner: float, outer: float) -> np.ndarray:
 def cross_diffusion(grad_k: np.ndarray, grad_w: np.ndarray, omega: np.ndarray,
                     c: SSTConstants = SSTConstants()) -> np.ndarray:
     """``CD_kw = max(2 sigma_w2 / omega grad k · grad omega, cd_floor)`` ``(nc,)``, 1/s² (kinematic)."""
-    return np.maximum(2.0 * c.sigma_w2 / omega * np.einsum("ij,ij->i", grad_k, grad_w), c.cd_floor)
+    return np.maximum(2.0 * c.sigma_w2 / omega * dot_last(grad_k, grad_w), c.cd_floor)
 
 
 def f1(k: np.ndarray, omega: np.ndarray, d: np.ndarray, nu: float, cd_kw: np.ndarray,
@@ -145,10 +148,9 @@ def spalding_u_tau(u_t: np.ndarray, y: np.ndarray, nu: float, c: SSTConstants = 
 
 def velocity_invariants(grad_u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``(S², Omega²)`` per cell: ``S² = 2 S_ij S_ij`` and ``Omega² = 2 W_ij W_ij`` from ``grad_u
-    (nc, 2, 2)`` ``[cell, component, direction]``, 1/s²."""
-    s = 0.5 * (grad_u + np.swapaxes(grad_u, 1, 2))
-    w = 0.5 * (grad_u - np.swapaxes(grad_u, 1, 2))
-    return 2.0 * np.einsum("cij,cij->c", s, s), 2.0 * np.einsum("cij,cij->c", w, w)
+    (nc, 2, 2)`` ``[cell, component, direction]``, 1/s²; one compiled loop
+    (:func:`solver.kernels.velocity_invariants`)."""
+    return kernels.velocity_invariants(np.ascontiguousarray(grad_u, dtype=float))
 
 
 def log_mean(a: np.ndarray, b: np.ndarray) -> np.ndarray:

@@ -14,6 +14,7 @@ from ..assembly import CONVECTION_SCHEMES, convection_gradient
 from ..boundary import FIXED, BoundaryData
 from ..fvmesh import FVMesh
 from ..gradient import interpolate_linear, ls_gradient
+from ..kernels import dot_last
 from ..linalg import SolverSettings
 from ..transport import scalar_system
 from ..walldistance import WALL_TYPES, wall_distance, wall_faces
@@ -236,7 +237,7 @@ def turbulence_step(model: SST, setup: SSTSetup, mesh: FVMesh, pattern, bnd: Bou
     # omega: gamma S² - beta w² (Newton-linearised: 2 beta w implicit, + beta w² explicit) + cross diffusion
     beta, gamma = blend(F1, c.beta1, c.beta2), blend(F1, c.gamma1, c.gamma2)
     sig_w = blend(F1, c.sigma_w1, c.sigma_w2)
-    cdw = 2.0 * (1.0 - F1) * c.sigma_w2 / omega * np.einsum("ij,ij->i", grad_k, grad_w)
+    cdw = 2.0 * (1.0 - F1) * c.sigma_w2 / omega * dot_last(grad_k, grad_w)
     su = rho * (gamma * sp2 + beta * omega**2 + np.maximum(cdw, 0.0))
     sp = rho * (2.0 * beta * omega + np.maximum(-cdw, 0.0) / omega)
     gam = face_diffusivity(mesh, mu + rho * sig_w * nu_t, (mu + rho * sig_w * nu_t)[ob], model.face_interpolation)

@@ -256,3 +256,27 @@ def test_compiled_csr_product_equals_scipy(mesh, columns):
     rng = np.random.default_rng(9)
     x = rng.standard_normal(op.shape[1] if columns is None else (op.shape[1], columns))
     np.testing.assert_array_equal(op @ x, op.matrix @ x)
+
+
+def test_dot_last_equals_einsum():
+    from solver.kernels import dot_last
+
+    rng = np.random.default_rng(10)
+    a, b, v = rng.standard_normal((300, 2, 2)), rng.standard_normal((300, 2)), rng.standard_normal((300, 2))
+    np.testing.assert_array_equal(dot_last(a, b), np.einsum("fcd,fd->fc", a, b))
+    np.testing.assert_array_equal(dot_last(np.swapaxes(a, 1, 2), b), np.einsum("fdc,fd->fc", a, b))
+    np.testing.assert_array_equal(dot_last(v, b), np.einsum("ij,ij->i", v, b))
+
+
+def test_velocity_invariants_equal_numpy_form():
+    """The compiled invariants against the numpy form (``einsum`` over the symmetric and antisymmetric
+    parts; bitwise on the development machine, to round-off wherever numpy pairs the sum differently)."""
+    from solver.turbulence.closures import velocity_invariants
+
+    g = np.random.default_rng(11).standard_normal((500, 2, 2))
+    s = 0.5 * (g + np.swapaxes(g, 1, 2))
+    w = 0.5 * (g - np.swapaxes(g, 1, 2))
+    s2, w2 = velocity_invariants(g)
+    np.testing.assert_allclose(s2, 2.0 * np.einsum("cij,cij->c", s, s), rtol=1e-15)
+    np.testing.assert_allclose(w2, 2.0 * np.einsum("cij,cij->c", w, w), rtol=1e-15)
+    np.testing.assert_allclose(velocity_invariants(np.array([[[0.0, 1.0], [0.0, 0.0]]])), [[1.0], [1.0]])  # shear
