@@ -14,7 +14,7 @@ from ..assembly import CONVECTION_SCHEMES, convection_gradient
 from ..boundary import FIXED, BoundaryData
 from ..fvmesh import FVMesh
 from ..gradient import interpolate_linear, ls_gradient
-from ..kernels import dot_last
+from ..kernels import dot_last, log_mean_faces
 from ..linalg import SolverSettings
 from ..transport import scalar_system
 from ..walldistance import WALL_TYPES, wall_distance, wall_faces
@@ -26,7 +26,6 @@ from .closures import (
     f1,
     f2,
     inlet_turbulence,
-    log_mean,
     omega_flux_factor,
     production,
     velocity_invariants,
@@ -154,9 +153,10 @@ def build_setup(mesh: FVMesh, bnd: BoundaryData, rho: float, mu: float, c: SSTCo
 
 
 def _log_mean_faces(mesh: FVMesh, gamma: np.ndarray) -> np.ndarray:
-    """Logarithmic mean of the two cells of each internal face (:func:`solver.turbulence.log_mean`)."""
+    """Logarithmic mean of the two cells of each internal face (:func:`solver.turbulence.log_mean`), in one
+    compiled loop (:func:`solver.kernels.log_mean_faces`)."""
     ni = mesh.n_internal
-    return log_mean(gamma[mesh.owner[:ni]], gamma[mesh.neighbour[:ni]])
+    return log_mean_faces(np.ascontiguousarray(gamma, dtype=float), mesh.owner[:ni], mesh.neighbour[:ni])
 
 
 #: Internal-face diffusivities by name: ``f(mesh, gamma (nc,)) -> (ni,)`` (:func:`face_diffusivity`).

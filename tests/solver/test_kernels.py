@@ -280,3 +280,15 @@ def test_velocity_invariants_equal_numpy_form():
     np.testing.assert_allclose(s2, 2.0 * np.einsum("cij,cij->c", s, s), rtol=1e-15)
     np.testing.assert_allclose(w2, 2.0 * np.einsum("cij,cij->c", w, w), rtol=1e-15)
     np.testing.assert_allclose(velocity_invariants(np.array([[[0.0, 1.0], [0.0, 0.0]]])), [[1.0], [1.0]])  # shear
+
+
+def test_log_mean_faces_equals_closure(mesh):
+    from solver.kernels import log_mean_faces
+    from solver.turbulence.closures import log_mean
+
+    rng = np.random.default_rng(12)
+    gamma = 10.0 ** rng.uniform(-6, -2, mesh.n_cells)
+    gamma[:10] = 1e-4                                   # equal neighbours: the arithmetic-mean branch
+    ni = mesh.n_internal
+    o, n = mesh.owner[:ni], mesh.neighbour[:ni]
+    np.testing.assert_allclose(log_mean_faces(gamma, o, n), log_mean(gamma[o], gamma[n]), rtol=1e-15, atol=0)
