@@ -110,10 +110,7 @@ def _upwind(mesh, phi, phi_b, grad, limiter, limiter_k):
 
 def _linear_upwind(mesh, phi, phi_b, grad, limiter, limiter_k):
     """Linear upwind: the limited gradient (:func:`solver.gradient.limited_gradient`), per component."""
-    if phi.ndim == 1:
-        return limited_gradient(mesh, phi, phi_b, grad, limiter, limiter_k)
-    return np.stack([limited_gradient(mesh, phi[:, c], phi_b[:, c], grad[:, c], limiter, limiter_k)
-                     for c in range(phi.shape[1])], axis=1)
+    return limited_gradient(mesh, phi, phi_b, grad, limiter, limiter_k)
 
 
 #: Convection schemes by name: ``f(mesh, phi, phi_b, grad, limiter, limiter_k) -> grad_HO`` (the gradient

@@ -77,6 +77,9 @@ def neighbour_bounds(mesh: FVMesh, phi: np.ndarray, phi_b: np.ndarray) -> tuple[
 
 def _barth_jespersen(mesh, phi, phi_b, grad, k):
     """Barth & Jespersen (1989): ``psi = min_f min(1, Δmax/Δ_f)`` (or Δmin for negative Δ_f)."""
+    if phi.ndim > 1:
+        return np.stack([_barth_jespersen(mesh, phi[:, i], phi_b[:, i], grad[:, i], k)
+                         for i in range(phi.shape[1])], axis=1)
     pmax, pmin = neighbour_bounds(mesh, phi, phi_b)
     delta = np.einsum("cki,ci->ck", mesh.cell_r, grad)
     dmax = (pmax - phi)[:, None]
@@ -99,8 +102,11 @@ def _venkatakrishnan(mesh, phi, phi_b, grad, k):
     eps2 = mesh.info.get(("venkatakrishnan_eps2", k))
     if eps2 is None:
         eps2 = mesh.info[("venkatakrishnan_eps2", k)] = (k * mesh.cell_size()) ** 3
-    return venkatakrishnan(np.ascontiguousarray(phi, dtype=float), np.ascontiguousarray(phi_b, dtype=float),
-                           mesh.cell_other, mesh.cell_r, np.ascontiguousarray(grad, dtype=float), eps2)
+    nc, nb = mesh.n_cells, mesh.n_boundary
+    psi = venkatakrishnan(np.ascontiguousarray(phi, dtype=float).reshape(nc, -1),
+                          np.ascontiguousarray(phi_b, dtype=float).reshape(nb, -1), mesh.cell_other, mesh.cell_r,
+                          np.ascontiguousarray(grad, dtype=float).reshape(nc, -1, 2), eps2)
+    return psi.reshape(phi.shape)
 
 
 def _no_limiter(mesh, phi, phi_b, grad, k):
@@ -108,7 +114,8 @@ def _no_limiter(mesh, phi, phi_b, grad, k):
     return np.ones_like(phi)
 
 
-#: Limiters by name: ``f(mesh, phi, phi_b, grad, k) -> psi (nc,)`` in [0, 1].
+#: Limiters by name: ``f(mesh, phi, phi_b, grad, k) -> psi`` in [0, 1], ``(nc,)`` for a scalar ``phi (nc,)``,
+#: ``(nc, m)`` per component for ``phi (nc, m)`` (``grad (nc, m, 2)``).
 LIMITERS: dict[str, Callable] = {
     "none": _no_limiter,
     "barth_jespersen": _barth_jespersen,
@@ -118,14 +125,15 @@ LIMITERS: dict[str, Callable] = {
 
 def limited_gradient(mesh: FVMesh, phi, phi_b, grad=None, limiter: str = "venkatakrishnan",
                      k: float = 5.0) -> np.ndarray:
-    """``psi * grad`` with ``psi`` from the named limiter in :data:`LIMITERS` (``grad`` computed if None)."""
+    """``psi * grad`` with ``psi`` from the named limiter in :data:`LIMITERS` (``grad`` computed if None);
+    ``phi`` a scalar ``(nc,)`` or a vector ``(nc, m)`` field (each component limited on its own)."""
     if grad is None:
         grad = ls_gradient(mesh, phi, phi_b)
     try:
         fn = LIMITERS[limiter]
     except KeyError:
         raise ValueError(f"unknown limiter {limiter!r}; choose from {sorted(LIMITERS)}") from None
-    return grad * fn(mesh, phi, phi_b, grad, k)[:, None]
+    return grad * fn(mesh, phi, phi_b, grad, k)[..., None]
 
 
 def interpolate_linear(mesh: FVMesh, phi: np.ndarray) -> np.ndarray:

@@ -15,37 +15,39 @@ from numba import njit
 
 @njit(cache=True)
 def venkatakrishnan(phi, phi_b, cell_other, cell_r, grad, eps2):
-    """Venkatakrishnan's limiter ``psi (nc,)`` of a scalar field (:func:`solver.gradient.LIMITERS`).
+    """Venkatakrishnan's limiter ``psi (nc, m)`` of the ``m`` components of a field
+    (:data:`solver.gradient.LIMITERS`).
 
-    phi ``(nc,)``, phi_b ``(nb,)`` boundary-face values; cell_other ``(nc, 4)`` index into ``concat(phi,
+    phi ``(nc, m)``, phi_b ``(nb, m)`` boundary-face values; cell_other ``(nc, 4)`` index into ``concat(phi,
     phi_b)`` across each cell face (the cell itself on padding); cell_r ``(nc, 4, 2)`` centroid -> face
-    centre (zero on padding), m; grad ``(nc, 2)``; eps2 ``(nc,)`` = ``(k h)³``. Per cell, with ``Δ_f =
-    grad·r_f`` and ``d1 = max - phi`` (``Δ_f >= 0``) or ``min - phi`` over the cell and its face
+    centre (zero on padding), m; grad ``(nc, m, 2)``; eps2 ``(nc,)`` = ``(k h)³``. Per cell and component,
+    with ``Δ_f = grad·r_f`` and ``d1 = max - phi`` (``Δ_f >= 0``) or ``min - phi`` over the cell and its face
     neighbours: ``psi = min_f clip(((d1² + eps2) Δ_f + 2 Δ_f² d1) / ((d1² + 2 Δ_f² + d1 Δ_f + eps2) Δ_f),
     0, 1)`` (1 where ``|Δ_f| <= 1e-300``)."""
-    nc = phi.shape[0]
-    psi = np.empty(nc)
+    nc, m = phi.shape
+    psi = np.empty((nc, m))
     for c in range(nc):
-        pmax = phi[c]
-        pmin = phi[c]
-        for k in range(cell_other.shape[1]):
-            j = cell_other[c, k]
-            v = phi[j] if j < nc else phi_b[j - nc]
-            pmax = max(pmax, v)
-            pmin = min(pmin, v)
-        best = 1.0
-        for k in range(cell_r.shape[1]):
-            delta = cell_r[c, k, 0] * grad[c, 0] + cell_r[c, k, 1] * grad[c, 1]
-            d1 = pmax - phi[c] if delta >= 0 else pmin - phi[c]
-            if abs(delta) > 1e-300:
-                num = (d1**2 + eps2[c]) * delta + 2.0 * delta**2 * d1
-                den = d1**2 + 2.0 * delta**2 + d1 * delta + eps2[c]
-                p = min(max(num / (den * delta), 0.0), 1.0)
-            else:
-                p = 1.0
-            if p < best or p != p:
-                best = p
-        psi[c] = best
+        for i in range(m):
+            pmax = phi[c, i]
+            pmin = phi[c, i]
+            for k in range(cell_other.shape[1]):
+                j = cell_other[c, k]
+                v = phi[j, i] if j < nc else phi_b[j - nc, i]
+                pmax = max(pmax, v)
+                pmin = min(pmin, v)
+            best = 1.0
+            for k in range(cell_r.shape[1]):
+                delta = cell_r[c, k, 0] * grad[c, i, 0] + cell_r[c, k, 1] * grad[c, i, 1]
+                d1 = pmax - phi[c, i] if delta >= 0 else pmin - phi[c, i]
+                if abs(delta) > 1e-300:
+                    num = (d1**2 + eps2[c]) * delta + 2.0 * delta**2 * d1
+                    den = d1**2 + 2.0 * delta**2 + d1 * delta + eps2[c]
+                    p = min(max(num / (den * delta), 0.0), 1.0)
+                else:
+                    p = 1.0
+                if p < best or p != p:
+                    best = p
+            psi[c, i] = best
     return psi
 
 

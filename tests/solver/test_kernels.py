@@ -49,6 +49,10 @@ def test_venkatakrishnan_equals_numpy_form(mesh, field, k):
     ref = venkatakrishnan_numpy(mesh, phi, phi_b, grad, k)
     assert ref.min() < 0.5                       # the front is limited: the test exercises the formula
     np.testing.assert_array_equal(psi, ref)
+    two = LIMITERS["venkatakrishnan"](mesh, np.column_stack([phi, -2 * phi]), np.column_stack([phi_b, -2 * phi_b]),
+                                      np.stack([grad, -2 * grad], axis=1), k)          # a vector field
+    np.testing.assert_array_equal(two, np.column_stack([ref, venkatakrishnan_numpy(mesh, -2 * phi, -2 * phi_b,
+                                                                                   -2 * grad, k)]))
 
 
 def deferred_correction_numpy(mesh, flux, grad_ho):
