@@ -201,6 +201,24 @@ def csr_matmat(indptr, indices, data, x, n_rows):
     return y
 
 
+@njit(cache=True)
+def csr_matmat2(indptr, indices, data, x, n_rows):
+    """:func:`csr_matmat` for two columns (vector fields): both running sums in one pass over the row
+    (bitwise the same sums, twice as fast as the generic loop)."""
+    y = np.empty((n_rows, 2))
+    for i in range(n_rows):
+        s0 = 0.0
+        s1 = 0.0
+        for jj in range(indptr[i], indptr[i + 1]):
+            a = data[jj]
+            j = indices[jj]
+            s0 += a * x[j, 0]
+            s1 += a * x[j, 1]
+        y[i, 0] = s0
+        y[i, 1] = s1
+    return y
+
+
 class CompiledCSR:
     """A fixed CSR matrix (an interpolation or gradient operator built once per mesh) whose products go
     through :func:`csr_matmat` when ``X`` has several columns (the vector and gradient operands of the
@@ -222,7 +240,8 @@ class CompiledCSR:
         flat = x.reshape(x.shape[0], -1)
         if flat.shape[1] == 1:                       # one column: scipy's matvec is as fast (and bitwise)
             return self.matrix @ x
-        y = csr_matmat(self.indptr, self.indices, self.data, np.ascontiguousarray(flat), self.shape[0])
+        product = csr_matmat2 if flat.shape[1] == 2 else csr_matmat
+        y = product(self.indptr, self.indices, self.data, np.ascontiguousarray(flat), self.shape[0])
         return y.reshape((self.shape[0],) + x.shape[1:])
 
 
