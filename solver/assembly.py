@@ -20,6 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from . import kernels
 from .fvmesh import FVMesh
 from .gradient import interpolate_linear, limited_gradient
 from .kernels import dot_last
@@ -40,15 +41,13 @@ class Stencil:
 
 def upwind_stencil(mesh: FVMesh, flux: np.ndarray, gamma) -> Stencil:
     """:class:`Stencil` from the face mass fluxes ``flux (nf,)`` and the internal-face diffusivities
-    ``gamma`` (a float or ``(ni,)``), kg/(m s)."""
-    ni, nc = mesh.n_internal, mesh.n_cells
-    o, n = mesh.owner[:ni], mesh.neighbour[:ni]
-    F = flux[:ni]
-    D = gamma * mesh.diff_coeff[:ni]
-    upper = np.minimum(F, 0.0) - D
-    lower = -np.maximum(F, 0.0) - D
-    diag = np.bincount(o, np.maximum(F, 0.0) + D, nc) + np.bincount(n, np.maximum(-F, 0.0) + D, nc)
-    return Stencil(diag, upper, lower)
+    ``gamma`` (a float or ``(ni,)``), kg/(m s): ``upper = min(F, 0) - D``, ``lower = -max(F, 0) - D`` with
+    ``D = gamma diff_coeff``, the diagonal the sum of ``max(±F, 0) + D`` over the cell's faces (one compiled
+    loop, :func:`solver.kernels.upwind_stencil`)."""
+    ni = mesh.n_internal
+    D = np.ascontiguousarray(gamma * mesh.diff_coeff[:ni], dtype=float)
+    return Stencil(*kernels.upwind_stencil(np.ascontiguousarray(flux[:ni], dtype=float), D, mesh.owner,
+                                           mesh.neighbour, mesh.n_cells))
 
 
 def deferred_correction(mesh: FVMesh, flux: np.ndarray, grad_ho: np.ndarray) -> np.ndarray:
@@ -90,9 +89,11 @@ def scatter_face_sources(mesh: FVMesh, src: np.ndarray, face: np.ndarray) -> np.
     """``src - sum_{f: P owner} face_f + sum_{f: P neighbour} face_f``: the explicit face terms
     ``face (ni, ...)`` moved to the right-hand side ``src (nc, ...)`` of the owner (outflow sign) and the
     neighbour."""
-    ni = mesh.n_internal
-    src = src - sum_per_cell(mesh.owner[:ni], face, mesh.n_cells)
-    return src + sum_per_cell(mesh.neighbour[:ni], face, mesh.n_cells)
+    nc, ni = mesh.n_cells, mesh.n_internal
+    out = kernels.scatter_face_sources(np.ascontiguousarray(src, dtype=float).reshape(nc, -1),
+                                       np.ascontiguousarray(face, dtype=float).reshape(ni, -1), mesh.owner,
+                                       mesh.neighbour)
+    return out.reshape(np.shape(src))
 
 
 def sum_per_cell(cells: np.ndarray, values: np.ndarray, nc: int) -> np.ndarray:

@@ -339,3 +339,39 @@ def log_mean_faces(gamma, owner, neighbour):
         r = b / a
         out[f] = 0.5 * (a + b) if abs(r - 1.0) < 1e-6 else (b - a) / np.log(r)
     return out
+
+
+@njit(cache=True)
+def upwind_stencil(flux, diffusion, owner, neighbour, n_cells):
+    """Upwind-convection + orthogonal-diffusion coefficients of the internal faces
+    (:func:`solver.assembly.upwind_stencil`): ``upper = min(F, 0) - D``, ``lower = -max(F, 0) - D`` per face
+    and ``diag = sum_{P owner} (max(F, 0) + D) + sum_{P neighbour} (max(-F, 0) + D)`` per cell, the two sums
+    accumulated in face order (as two ``np.bincount``) and then added."""
+    ni = diffusion.shape[0]
+    upper = np.empty(ni)
+    lower = np.empty(ni)
+    from_owner = np.zeros(n_cells)
+    from_neighbour = np.zeros(n_cells)
+    for f in range(ni):
+        F = flux[f]
+        D = diffusion[f]
+        upper[f] = min(F, 0.0) - D
+        lower[f] = -max(F, 0.0) - D
+        from_owner[owner[f]] += max(F, 0.0) + D
+        from_neighbour[neighbour[f]] += max(-F, 0.0) + D
+    return from_owner + from_neighbour, upper, lower
+
+
+@njit(cache=True)
+def scatter_face_sources(src, face, owner, neighbour):
+    """``(src - sum_{f: P owner} face_f) + sum_{f: P neighbour} face_f`` per cell and component, ``src
+    (nc, m)``, ``face (ni, m)`` (:func:`solver.assembly.scatter_face_sources`; each sum accumulated in face
+    order, as ``np.bincount``)."""
+    nc, m = src.shape
+    from_owner = np.zeros((nc, m))
+    from_neighbour = np.zeros((nc, m))
+    for f in range(face.shape[0]):
+        for k in range(m):
+            from_owner[owner[f], k] += face[f, k]
+            from_neighbour[neighbour[f], k] += face[f, k]
+    return (src - from_owner) + from_neighbour

@@ -296,3 +296,27 @@ def test_log_mean_faces_equals_closure(mesh):
     ni = mesh.n_internal
     o, n = mesh.owner[:ni], mesh.neighbour[:ni]
     np.testing.assert_allclose(log_mean_faces(gamma, o, n), log_mean(gamma[o], gamma[n]), rtol=1e-15, atol=0)
+
+
+@pytest.mark.parametrize("vector", [False, True])
+def test_stencil_and_scatter_equal_numpy_forms(mesh, vector):
+    """:func:`upwind_stencil` and :func:`scatter_face_sources` (compiled) against their ``np.bincount``
+    forms, bitwise; zero fluxes included."""
+    from solver.assembly import scatter_face_sources, sum_per_cell, upwind_stencil
+
+    rng = np.random.default_rng(13)
+    ni, nc = mesh.n_internal, mesh.n_cells
+    o, n = mesh.owner[:ni], mesh.neighbour[:ni]
+    flux = rng.standard_normal(mesh.n_faces)
+    flux[:7] = 0.0
+    gamma = rng.uniform(0.1, 1.0, ni) if vector else 0.3
+    st = upwind_stencil(mesh, flux, gamma)
+    F, D = flux[:ni], gamma * mesh.diff_coeff[:ni]
+    np.testing.assert_array_equal(st.upper, np.minimum(F, 0.0) - D)
+    np.testing.assert_array_equal(st.lower, -np.maximum(F, 0.0) - D)
+    np.testing.assert_array_equal(st.diag, np.bincount(o, np.maximum(F, 0.0) + D, nc)
+                                  + np.bincount(n, np.maximum(-F, 0.0) + D, nc))
+    shape = (2,) if vector else ()
+    src, face = rng.standard_normal((nc,) + shape), rng.standard_normal((ni,) + shape)
+    ref = src - sum_per_cell(o, face, nc) + sum_per_cell(n, face, nc)
+    np.testing.assert_array_equal(scatter_face_sources(mesh, src, face), ref)
