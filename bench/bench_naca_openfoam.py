@@ -286,21 +286,36 @@ def openfoam_record(directory: Path, mesh) -> dict:
 
 # ---------------------------------------------------------------------------------------------- millfoil
 def run_millfoil(level: str, alpha_deg: float, max_iter: int, state_file: Path | None = None,
-                 max_seconds: float | None = None) -> dict:
-    """The validation case's own settings (:func:`run_naca0012`) without the point-vortex correction."""
-    from solver.validation.naca0012 import Convergence, run_naca0012
+                 max_seconds: float | None = None, variant: dict | None = None) -> dict:
+    """The validation case's own settings (:func:`run_naca0012`) without the point-vortex correction.
 
+    ``variant`` (experiments, ``--mf-variant key=value``): ``limiter`` (momentum convection's gradient
+    limiter, :data:`solver.gradient.LIMITERS`, through :func:`naca_settings`) and any :class:`solver.SST`
+    field (``face_interpolation``, ``production_measure``, ``convection``, ...)."""
+    from solver.turbulence import SST
+    from solver.validation.naca0012 import Convergence, naca_settings, run_naca0012
+
+    variant = dict(variant or {})
+    conv = Convergence(max_iter=max_iter)
+    settings = naca_settings(max_iter=conv.chunk, limiter=variant.pop("limiter")) if "limiter" in variant else None
+    turbulence = SST(wall_treatment="low_re", **variant) if variant else None
     t0 = time.perf_counter()
-    r = run_naca0012(alpha_deg, level, vortex_correction=False, convergence=Convergence(max_iter=max_iter),
-                     state_file=state_file, max_seconds=max_seconds)
+    r = run_naca0012(alpha_deg, level, vortex_correction=False, convergence=conv, state_file=state_file,
+                     max_seconds=max_seconds, settings=settings, turbulence=turbulence)
     res = r.results
     rec = {"c_l": r.c_l, "c_d": r.c_d, "c_max": float(res.c_max), "iterations": r.iterations, "status": r.status,
            "converged": r.status == "converged", "seconds": round(time.perf_counter() - t0, 1),
-           "iterations_this_run": r.history.get("iterations_this_run"), "y_plus_max": r.y_plus_max}
+           "iterations_this_run": r.history.get("iterations_this_run"), "y_plus_max": r.y_plus_max,
+           "c_d_pressure": r.c_d_pressure, "c_d_viscous": r.c_d_viscous}
     rec.update(window_stats(np.asarray(r.history["c_l"]), r.history["chunk"]))
     j = res.mesh.boundary_local("wall")
     rec["wall"] = wall_record(res.mesh, res.boundary_pressure()[j], res.wall_shear("wall"))
     return rec
+
+
+def variant_name(variant: dict) -> str:
+    """``millfoil`` or ``millfoil[key=value,...]``: the code name of a run in the JSONL and the report."""
+    return "millfoil" + (f"[{','.join(f'{k}={v}' for k, v in sorted(variant.items()))}]" if variant else "")
 
 
 # ------------------------------------------------------------------------------------------------ report
@@ -352,12 +367,13 @@ def report(records: dict) -> str:
     levels = sorted({k[0] for k in records}, key=["coarse", "medium", "fine"].index)
     for level in levels:
         for a in sorted({k[1] for k in records if k[0] == level}):
-            of, mf = records.get((level, a, "openfoam")), records.get((level, a, "millfoil"))
-            for code, r in (("OpenFOAM", of), ("millfoil", mf)):
+            of = records.get((level, a, "openfoam"))
+            codes = sorted({c for lv, aa, c in records if lv == level and aa == a and c != "openfoam"})
+            for code, r in [("OpenFOAM", of)] + [(c, records[(level, a, c)]) for c in codes]:
                 if r is None or "error" in r:
                     continue
                 diff = ["", "", "", ""]
-                if code == "millfoil" and of is not None and "error" not in of:
+                if code != "OpenFOAM" and of is not None and "error" not in of:
                     diff = [f"{100 * (lift(r) / lift(of) - 1):+.2f}" if abs(lift(of)) > 2e-2
                             else f"{lift(r) - lift(of):+.1e} abs", f"{100 * (r['c_d'] / of['c_d'] - 1):+.2f}",
                             f"{wall_rms(r, of, 'cp'):.4f}", f"{wall_rms(r, of, 'cf'):.2e}"]
@@ -369,7 +385,7 @@ def report(records: dict) -> str:
                     f"{fmt(r['wall']['x_sep'], '.3f')} | {r['iterations']} ({convergence_class(r)}) | "
                     f"{r['cl_spread_window']:.1e} | {fmt(r.get('seconds'), '.0f')} | " + " | ".join(diff)
                     + f" | {refs} |")
-        for code in ("openfoam", "millfoil"):
+        for code in sorted({c for lv, _, c in records if lv == level}):
             pts = [(a, lift(r)) for (lv, a, c), r in records.items() if lv == level and c == code and "error" not in r]
             if pts:
                 a, cl = max(pts, key=lambda t: t[1])
@@ -435,18 +451,19 @@ def plot(records: dict, directory: Path = FIGURES) -> list[Path]:
         if not both:
             continue
         a = max(both)
-        fig, axes = plt.subplots(1, 2, figsize=(11, 4))
+        fig, axes = plt.subplots(1, 3, figsize=(15, 4.2))
         for code, (label, _) in styles.items():
             w = records[(level, a, code)]["wall"]
             x, y = np.asarray(w["x"]), np.asarray(w["y"])
-            for surf, sel in (("upper", y > 0), ("lower", y <= 0)):
+            for surf, sel, colour in (("upper", y > 0, "C0"), ("lower", y <= 0, "C3")):
                 o = np.argsort(x[sel])
-                ls = "-" if code == "millfoil" else "--"
-                axes[0].plot(x[sel][o], -np.asarray(w["cp"])[sel][o], ls, label=f"{label}, {surf}")
-                axes[1].plot(x[sel][o], np.asarray(w["cf"])[sel][o], ls, label=f"{label}, {surf}")
+                kw = dict(color=colour, ls="-" if code == "millfoil" else "--", label=f"{label}, {surf}")
+                for axis in axes[:2]:
+                    axis.plot(x[sel][o], -np.asarray(w["cp"])[sel][o], marker="." if axis is axes[1] else None, **kw)
+                axes[2].plot(x[sel][o], np.asarray(w["cf"])[sel][o], **kw)
         axes[0].set(xlabel="x/c", ylabel="−C_p", title=f"{level}, α = {a:g}°")
-        axes[1].set(xlabel="x/c", ylabel="c_f", title=f"{level}, α = {a:g}° (c_f along the surface, LE→TE)",
-                    ylim=(-0.005, 0.02))
+        axes[1].set(xlabel="x/c", ylabel="−C_p", title="leading edge (wall faces marked)", xlim=(-0.001, 0.03))
+        axes[2].set(xlabel="x/c", ylabel="c_f", title="c_f along the surface, LE→TE", ylim=(-0.005, 0.02))
         for axis in axes:
             axis.grid(alpha=0.3)
             axis.legend(fontsize=7)
@@ -468,6 +485,8 @@ def main(argv=None) -> None:
                         "(e.g. 'cellLimited<Venkatakrishnan> Gauss linear 1')")
     parser.add_argument("--of-alpha-u", type=float, default=0.9, help="simpleFoam U relaxation (SIMPLEC)")
     parser.add_argument("--mf-iterations", type=int, default=6000, help="millfoil iteration cap")
+    parser.add_argument("--mf-variant", nargs="*", default=[], metavar="KEY=VALUE",
+                        help="millfoil experiment: limiter=none, face_interpolation=linear, ... (run_millfoil)")
     parser.add_argument("--mf-seconds", type=float, default=None, help="millfoil wall-time cap per angle")
     parser.add_argument("--work", type=Path, default=ROOT / "runs" / "bench_naca_openfoam")
     parser.add_argument("--out", type=Path, default=None, help="JSON lines file (appended)")
@@ -492,8 +511,11 @@ def main(argv=None) -> None:
                                                                       args.of_iterations, args.u_gradient,
                                                                       args.of_alpha_u)
                 else:
+                    variant = dict(kv.split("=", 1) for kv in args.mf_variant)
+                    code = variant_name(variant)
                     case.mkdir(parents=True, exist_ok=True)
-                    rec = run_millfoil(level, alpha, args.mf_iterations, case / "millfoil_state.npz", args.mf_seconds)
+                    rec = run_millfoil(level, alpha, args.mf_iterations, case / f"{code}_state.npz", args.mf_seconds,
+                                       variant)
                 rec = {"level": level, "alpha": alpha, "code": code, **rec,
                        "time": time.strftime("%Y-%m-%d %H:%M"), "load": round(os.getloadavg()[0], 1)}
                 if args.out:
