@@ -58,7 +58,9 @@ def _imports(name: str, path: Path) -> set[str]:
                 module = ".".join(base + ([node.module] if node.module else []))
             else:
                 module = node.module or ""
-            targets = [f"{module}.{a.name}" for a in node.names] + [module]
+            submodules = [f"{module}.{a.name}" for a in node.names]
+            # ``from pkg import submodule`` depends on that submodule; any other name on pkg itself
+            targets = submodules + ([module] if any(t not in MODULES for t in submodules) else [])
         for target in targets:
             resolved = _resolve(target)
             if resolved is not None and resolved != name:
