@@ -41,6 +41,9 @@ class SST:
     constants: :class:`SSTConstants`.
     production_measure: ``"strain"`` (SST-2003) or ``"vorticity"`` (SST-V) in the production terms
         (:data:`PRODUCTION_MEASURES`).
+    omega_production: ``"unlimited"`` (default, ``gamma S_P²``) or ``"limited"`` (``gamma P~ / nu_t``: the
+        production limiter of the k equation carried into the omega equation, as OpenFOAM's ``kOmegaSST``
+        does since v1906), :data:`OMEGA_PRODUCTIONS`.
     alpha_k, alpha_omega: implicit under-relaxation of the k and omega equations.
     convection: ``"upwind"`` (default) or ``"linear_upwind"`` (deferred correction, limited gradient) for
         k and omega. Upwind by default: k and omega are source-dominated in boundary layers (production
@@ -58,6 +61,7 @@ class SST:
     wall_treatment: str = "automatic"
     constants: SSTConstants = SSTConstants()
     production_measure: str = "strain"
+    omega_production: str = "unlimited"
     alpha_k: float = 0.8
     alpha_omega: float = 0.8
     convection: str = "upwind"
@@ -73,6 +77,7 @@ class SST:
             raise ValueError(f"unknown wall_treatment {self.wall_treatment!r}; choose from "
                              f"{sorted(WALL_TREATMENTS)}")
         for name, value, registry in (("production_measure", self.production_measure, PRODUCTION_MEASURES),
+                                      ("omega_production", self.omega_production, OMEGA_PRODUCTIONS),
                                       ("convection", self.convection, CONVECTION_SCHEMES),
                                       ("face_interpolation", self.face_interpolation, FACE_DIFFUSIVITIES)):
             if value not in registry:
@@ -203,6 +208,20 @@ def momentum_viscosity(mesh: FVMesh, setup: SSTSetup, nu_t: np.ndarray, mu_wall:
     return mu_f
 
 
+def _limited_omega_production(sp2, nu_t, k, omega, c):
+    """``P~ / nu_t = min(S_P², 10 beta* k omega / nu_t)`` (1/s²): the k production limiter in the omega
+    source too (OpenFOAM v1912 ``kOmegaSSTBase``: ``min(GbyNu, (c1/a1) beta* omega max(a1 omega, b1 F2
+    S))``, the same quantity, since ``k / nu_t = max(a1 omega, F2 S) / a1``)."""
+    return np.minimum(sp2, c.production_limit * c.beta_star * k * omega / np.maximum(nu_t, 1e-300))
+
+
+#: omega-equation production ``/ gamma`` by name: ``f(S_P² (nc,), nu_t, k, omega, constants) -> (nc,)``, 1/s².
+OMEGA_PRODUCTIONS: dict[str, Callable] = {
+    "unlimited": lambda sp2, nu_t, k, omega, c: sp2,
+    "limited": _limited_omega_production,
+}
+
+
 def turbulence_step(model: SST, setup: SSTSetup, mesh: FVMesh, pattern, bnd: BoundaryData, u: np.ndarray,
                     grad_u: np.ndarray, flux: np.ndarray, k: np.ndarray, omega: np.ndarray, rho: float,
                     mu: float, solver_state: dict) -> tuple[dict, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -238,7 +257,8 @@ def turbulence_step(model: SST, setup: SSTSetup, mesh: FVMesh, pattern, bnd: Bou
     beta, gamma = blend(F1, c.beta1, c.beta2), blend(F1, c.gamma1, c.gamma2)
     sig_w = blend(F1, c.sigma_w1, c.sigma_w2)
     cdw = 2.0 * (1.0 - F1) * c.sigma_w2 / omega * dot_last(grad_k, grad_w)
-    su = rho * (gamma * sp2 + beta * omega**2 + np.maximum(cdw, 0.0))
+    p_w = OMEGA_PRODUCTIONS[model.omega_production](sp2, nu_t, k, omega, c)
+    su = rho * (gamma * p_w + beta * omega**2 + np.maximum(cdw, 0.0))
     sp = rho * (2.0 * beta * omega + np.maximum(-cdw, 0.0) / omega)
     gam = face_diffusivity(mesh, mu + rho * sig_w * nu_t, (mu + rho * sig_w * nu_t)[ob], model.face_interpolation)
     if setup.near_faces is not None and len(setup.near_faces):     # omega flux out of the fixed wall cells

@@ -89,6 +89,19 @@ def test_production_limiter():
     assert p[0] == pytest.approx(0.1) and p[1] == pytest.approx(10 * C.beta_star)
 
 
+def test_limited_omega_production_is_the_k_limiter_over_nu_t():
+    from solver.turbulence.sst import OMEGA_PRODUCTIONS
+
+    k, w, s2 = np.array([1.0, 1.0]), np.array([1.0, 1.0]), np.array([1.0, 1.0])
+    nut = np.array([0.1, 100.0])           # limiter inactive (P = nu_t S²) and active (P = 10 beta* k omega)
+    p = OMEGA_PRODUCTIONS["limited"](s2, nut, k, w, C)
+    assert p == pytest.approx(production(nut, s2, k, w, C) / nut)
+    assert p[0] == pytest.approx(1.0) and p[1] == pytest.approx(10 * C.beta_star / 100.0)
+    assert np.array_equal(OMEGA_PRODUCTIONS["unlimited"](s2, nut, k, w, C), s2)
+    with pytest.raises(ValueError, match="omega_production.*limited"):
+        SST(omega_production="clipped")
+
+
 def test_inlet_turbulence():
     k, w = inlet_turbulence(10.0, 0.05, 10.0, 1e-5)
     assert k == pytest.approx(1.5 * 0.25) and w == pytest.approx(k / 1e-4)
