@@ -100,6 +100,8 @@ def window_stats(cl_history: np.ndarray, every: int) -> dict:
     """Mean and spread (max - min) of C_L over the last :data:`WINDOW` iterations of a history sampled
     every ``every`` iterations."""
     w = cl_history[-(WINDOW // every + 1):]
+    if not len(w):                                   # diverged in its first chunk
+        return {"cl_mean_window": None, "cl_spread_window": None}
     return {"cl_mean_window": float(np.mean(w)), "cl_spread_window": float(np.ptp(w))}
 
 
@@ -289,16 +291,25 @@ def run_millfoil(level: str, alpha_deg: float, max_iter: int, state_file: Path |
                  max_seconds: float | None = None, variant: dict | None = None) -> dict:
     """The validation case's own settings (:func:`run_naca0012`) without the point-vortex correction.
 
-    ``variant`` (experiments, ``--mf-variant key=value``): ``limiter`` (momentum convection's gradient
-    limiter, :data:`solver.gradient.LIMITERS`, through :func:`naca_settings`) and any :class:`solver.SST`
-    field (``face_interpolation``, ``production_measure``, ``convection``, ...)."""
+    ``variant`` (experiments, ``--mf-variant key=value``): :class:`solver.SimpleSettings` fields
+    (``limiter``, ``limiter_k``, ``pressure_gradient``, ..., through :func:`naca_settings`) and
+    :class:`solver.SST` fields (``face_interpolation``, ``production_measure``, ...); numbers are parsed."""
+    from solver import SimpleSettings
     from solver.turbulence import SST
     from solver.validation.naca0012 import Convergence, naca_settings, run_naca0012
 
-    variant = dict(variant or {})
+    def value(v):
+        try:
+            return float(v)
+        except (TypeError, ValueError):
+            return v
+
+    variant = {k: value(v) for k, v in (variant or {}).items()}
+    simple = {k: v for k, v in variant.items() if k in SimpleSettings.__dataclass_fields__}
+    sst = {k: v for k, v in variant.items() if k not in simple}
     conv = Convergence(max_iter=max_iter)
-    settings = naca_settings(max_iter=conv.chunk, limiter=variant.pop("limiter")) if "limiter" in variant else None
-    turbulence = SST(wall_treatment="low_re", **variant) if variant else None
+    settings = naca_settings(max_iter=conv.chunk, **simple) if simple else None
+    turbulence = SST(wall_treatment="low_re", **sst) if sst else None
     t0 = time.perf_counter()
     r = run_naca0012(alpha_deg, level, vortex_correction=False, convergence=conv, state_file=state_file,
                      max_seconds=max_seconds, settings=settings, turbulence=turbulence)
@@ -342,9 +353,12 @@ STATIONARY_SPREAD = 5e-4
 
 def convergence_class(r: dict) -> str:
     """``converged`` (the code's own test met), ``stationary`` (stopped at the cap with C_L spread below
-    :data:`STATIONARY_SPREAD` over the last :data:`WINDOW` iterations) or ``oscillating`` (larger spread)."""
+    :data:`STATIONARY_SPREAD` over the last :data:`WINDOW` iterations), ``oscillating`` (larger spread) or
+    ``diverged``."""
     if r.get("converged"):
         return "converged"
+    if r.get("status") == "diverged" or r.get("cl_spread_window") is None:
+        return "diverged"
     return "stationary" if r["cl_spread_window"] < STATIONARY_SPREAD else "oscillating"
 
 
@@ -361,10 +375,11 @@ def report(records: dict) -> str:
     """Markdown table per level and angle (both codes, the CFL3D SST reference at 0 and 10 deg) and the angle of
     C_L,max per code."""
     ref = load_clcd()
-    lines = ["| level | α | code | C_L | C_D | C_max | x_sep/c | iterations (class) | C_L spread 200 it | s "
+    lines = ["| level | α | code | C_L | C_D | C_max | x_sep/c | iterations (class) | C_L spread 200 it | s (ms/it) "
              "| ΔC_L % | ΔC_D % | RMS ΔC_p | RMS Δc_f | CFL3D C_L / C_D | Ladson C_L / C_D |",
              "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
     levels = sorted({k[0] for k in records}, key=["coarse", "medium", "fine"].index)
+    notes = []
     for level in levels:
         for a in sorted({k[1] for k in records if k[0] == level}):
             of = records.get((level, a, "openfoam"))
@@ -383,14 +398,16 @@ def report(records: dict) -> str:
                 lines.append(
                     f"| {level} | {a:g} | {code} | {lift(r):.4f} | {r['c_d']:.5f} | {r['c_max']:.3f} | "
                     f"{fmt(r['wall']['x_sep'], '.3f')} | {r['iterations']} ({convergence_class(r)}) | "
-                    f"{r['cl_spread_window']:.1e} | {fmt(r.get('seconds'), '.0f')} | " + " | ".join(diff)
+                    f"{fmt(r['cl_spread_window'], '.1e')} | {fmt(r.get('seconds'), '.0f')} "
+                    f"({1e3 * r['seconds'] / max(r.get('iterations_this_run') or r['iterations'], 1):.0f}) | "
+                    + " | ".join(diff)
                     + f" | {refs} |")
         for code in sorted({c for lv, _, c in records if lv == level}):
             pts = [(a, lift(r)) for (lv, a, c), r in records.items() if lv == level and c == code and "error" not in r]
             if pts:
                 a, cl = max(pts, key=lambda t: t[1])
-                lines.append(f"\n{level}, {code}: C_L,max = {cl:.4f} at α = {a:g}° (of {len(pts)} angles)")
-    return "\n".join(lines)
+                notes.append(f"{level}, {code}: C_L,max = {cl:.4f} at α = {a:g}° (of {len(pts)} angles)")
+    return "\n".join(lines) + "\n\n" + "\n".join(f"- {n}" for n in notes)
 
 
 def ladson_at(alpha_deg: float) -> tuple[float, float] | None:
@@ -437,7 +454,8 @@ def plot(records: dict, directory: Path = FIGURES) -> list[Path]:
     ax.plot(lad[:, 0], lad[:, 1], "k^", ms=4, mfc="none", label="Ladson (1988), experiment")
     ref = load_clcd()
     ax.plot(list(ref), [v[0] for v in ref.values()], "r*", ms=10, label="TMR CFL3D SST (897×257)")
-    ax.set(xlabel="α (deg)", ylabel="C_L", title="NACA 0012, Re 6·10⁶, same C-mesh, no point vortex")
+    ax.set(xlabel="α (deg)", ylabel="C_L", title="NACA 0012, Re 6·10⁶, same C-mesh, no point vortex", xlim=(-1, 21),
+           ylim=(-0.1, 1.7))
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8)
     fig.tight_layout()
@@ -448,30 +466,34 @@ def plot(records: dict, directory: Path = FIGURES) -> list[Path]:
         both = [a for (lv, a, c), r in records.items() if lv == level and c == "millfoil" and "error" not in r
                 and convergence_class(r) != "oscillating" and (lv, a, "openfoam") in records
                 and convergence_class(records[(lv, a, "openfoam")]) != "oscillating"]
-        if not both:
-            continue
-        a = max(both)
-        fig, axes = plt.subplots(1, 3, figsize=(15, 4.2))
-        for code, (label, _) in styles.items():
-            w = records[(level, a, code)]["wall"]
-            x, y = np.asarray(w["x"]), np.asarray(w["y"])
-            for surf, sel, colour in (("upper", y > 0, "C0"), ("lower", y <= 0, "C3")):
-                o = np.argsort(x[sel])
-                kw = dict(color=colour, ls="-" if code == "millfoil" else "--", label=f"{label}, {surf}")
-                for axis in axes[:2]:
-                    axis.plot(x[sel][o], -np.asarray(w["cp"])[sel][o], marker="." if axis is axes[1] else None, **kw)
-                axes[2].plot(x[sel][o], np.asarray(w["cf"])[sel][o], **kw)
-        axes[0].set(xlabel="x/c", ylabel="−C_p", title=f"{level}, α = {a:g}°")
-        axes[1].set(xlabel="x/c", ylabel="−C_p", title="leading edge (wall faces marked)", xlim=(-0.001, 0.03))
-        axes[2].set(xlabel="x/c", ylabel="c_f", title="c_f along the surface, LE→TE", ylim=(-0.005, 0.02))
-        for axis in axes:
-            axis.grid(alpha=0.3)
-            axis.legend(fontsize=7)
-        fig.tight_layout()
-        out.append(directory / f"naca0012_{level}_cp_cf_alpha{a:g}.png")
-        fig.savefig(out[-1], dpi=120)
-        plt.close(fig)
+        for a in sorted({max(both)} | ({10.0} & set(both))) if both else ():
+            out.append(_plot_wall(records, level, a, styles, directory, plt))
     return out
+
+
+def _plot_wall(records: dict, level: str, a: float, styles: dict, directory: Path, plt) -> Path:
+    """C_p (whole chord and leading edge) and c_f of both codes at one angle; returns the file."""
+    fig, axes = plt.subplots(1, 3, figsize=(15, 4.2))
+    for code, (label, _) in styles.items():
+        w = records[(level, a, code)]["wall"]
+        x, y = np.asarray(w["x"]), np.asarray(w["y"])
+        for surf, sel, colour in (("upper", y > 0, "C0"), ("lower", y <= 0, "C3")):
+            o = np.argsort(x[sel])
+            kw = dict(color=colour, ls="-" if code == "millfoil" else "--", label=f"{label}, {surf}")
+            for axis in axes[:2]:
+                axis.plot(x[sel][o], -np.asarray(w["cp"])[sel][o], marker="." if axis is axes[1] else None, **kw)
+            axes[2].plot(x[sel][o], np.asarray(w["cf"])[sel][o], **kw)
+    axes[0].set(xlabel="x/c", ylabel="−C_p", title=f"{level}, α = {a:g}°")
+    axes[1].set(xlabel="x/c", ylabel="−C_p", title="leading edge (wall faces marked)", xlim=(-0.001, 0.03))
+    axes[2].set(xlabel="x/c", ylabel="c_f", title="c_f along the surface, LE→TE", ylim=(-0.005, 0.02))
+    for axis in axes:
+        axis.grid(alpha=0.3)
+        axis.legend(fontsize=7)
+    fig.tight_layout()
+    path = directory / f"naca0012_{level}_cp_cf_alpha{a:g}.png"
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return path
 
 
 # --------------------------------------------------------------------------------------------------- CLI
