@@ -44,6 +44,7 @@ sys.path.insert(0, str(ROOT / "bench"))
 
 from openfoam_case import (  # noqa: E402
     DEPTH,
+    control_head,
     ensure_openfoam,
     execution_times,
     field_body,
@@ -163,18 +164,7 @@ def control_dict(alpha_deg: float, iterations: int) -> str:
     """simpleFoam for at most ``iterations``; force coefficients every iteration (ρ = U = c = 1, span
     :data:`DEPTH`), wall shear stress at the end."""
     d = freestream(alpha_deg)
-    return f"""application simpleFoam;
-startFrom startTime;
-startTime 0;
-stopAt endTime;
-endTime {iterations};
-deltaT 1;
-writeControl timeStep;
-writeInterval {iterations};
-writeFormat ascii;
-writePrecision 10;
-runTimeModifiable false;
-functions
+    return control_head(iterations, "writePrecision 10;\n") + f"""functions
 {{
     forceCoeffs
     {{

@@ -33,7 +33,7 @@ sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "bench"))
 
 from bench_performance import cases, iterations_within  # noqa: E402
-from openfoam_case import DEPTH, ENV, HEADER, ensure_openfoam, write_polymesh  # noqa: E402
+from openfoam_case import DEPTH, ENV, HEADER, control_head, ensure_openfoam, write_polymesh  # noqa: E402
 
 #: Patch types of the blade channel's boundary groups.
 BLADE_PATCH_TYPES = {"inlet": "patch", "outlet": "patch", "top": "symmetry", "bottom": "symmetry", "blade": "wall"}
@@ -50,17 +50,7 @@ def write_case(directory: Path, speed: float, rho: float, mu: float, intensity: 
         "constant/transportProperties": ("dictionary", f"transportModel Newtonian;\nnu {nu:.8g};\n"),
         "constant/turbulenceProperties": ("dictionary", "simulationType RAS;\nRAS\n{\n    RASModel kOmegaSST;\n"
                                           "    turbulence on;\n    printCoeffs off;\n}\n"),
-        "system/controlDict": ("dictionary", f"""application simpleFoam;
-startFrom startTime;
-startTime 0;
-stopAt endTime;
-endTime {iterations};
-deltaT 1;
-writeControl timeStep;
-writeInterval {iterations};
-writeFormat ascii;
-runTimeModifiable false;
-functions
+        "system/controlDict": ("dictionary", control_head(iterations) + f"""functions
 {{
     forces
     {{

@@ -108,6 +108,22 @@ def write_polymesh(mesh, directory: Path, types: dict[str, str] | None = None) -
 
 
 # --------------------------------------------------------------------------------------------- the case
+def control_head(iterations: int, extra: str = "") -> str:
+    """The head of a steady ``system/controlDict``: simpleFoam for ``iterations`` iterations, the fields
+    written once at the end (``extra``: more entries before ``runTimeModifiable``)."""
+    return f"""application simpleFoam;
+startFrom startTime;
+startTime 0;
+stopAt endTime;
+endTime {iterations};
+deltaT 1;
+writeControl timeStep;
+writeInterval {iterations};
+writeFormat ascii;
+{extra}runTimeModifiable false;
+"""
+
+
 def write_file(directory: Path, rel: str, cls: str, body: str) -> None:
     """One case file ``directory/rel`` (``"system/fvSchemes"``) with its FoamFile header."""
     path = directory / rel
