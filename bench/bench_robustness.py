@@ -20,9 +20,12 @@ prints the summary of finished record files without evaluating anything.
     python bench/bench_robustness.py --blades 50 --level medium --workers 1 --shard 0/2 --out runs/r0.jsonl
     python bench/bench_robustness.py --report runs/r0.jsonl runs/r1.jsonl
     python bench/bench_robustness.py --retry runs/r0.jsonl runs/r1.jsonl --max-iter 4000 --out runs/retry.jsonl
+    python bench/bench_robustness.py --blades 50 --set alpha_u=0.95 --out runs/alpha095.jsonl   # settings trial
 
 ``--retry FILE ...`` evaluates again the blades of those records whose status is ``--retry-status``
-(default ``not_converged``), at their level, e.g. with a larger ``--max-iter``.
+(default ``not_converged``), at their level, e.g. with a larger ``--max-iter``. ``--set KEY=VALUE``
+(repeatable) overrides a key of the ``solver:`` section (the value read as JSON where it parses), e.g. to
+sweep the blades with other solver settings before changing a default.
 """
 
 from __future__ import annotations
@@ -59,16 +62,16 @@ def draw_blades(n: int, seed: int, max_draws: int = 200_000) -> list[tuple[str, 
     return out
 
 
-def evaluate_one(task: tuple[int, str, str, dict, str, int]) -> dict:
+def evaluate_one(task: tuple[int, str, str, dict, str, int, dict]) -> dict:
     """Evaluate one blade; never raises: the outcome is in the record."""
     from optimizer.config import Config
     from optimizer.pipeline import evaluate
 
-    index, mode, cont, params, level, max_iter = task
-    raw = {"blade": {"mode": mode, "continuity": cont, "parameters": params}, "mesh": {"level": level}}
-    if max_iter:
-        raw["solver"] = {"max_iter": max_iter}
-    record = {"index": index, "mode": mode, "continuity": cont, "parameters": params, "level": level}
+    index, mode, cont, params, level, max_iter, solver = task
+    raw = {"blade": {"mode": mode, "continuity": cont, "parameters": params}, "mesh": {"level": level},
+           "solver": {**solver, **({"max_iter": max_iter} if max_iter else {})}}
+    record = {"index": index, "mode": mode, "continuity": cont, "parameters": params, "level": level,
+              **({"solver": solver} if solver else {})}
     start = time.perf_counter()
     try:
         ev = evaluate(Config.from_mapping(raw))
@@ -130,6 +133,20 @@ def parse_shard(text: str) -> tuple[int, int]:
     return k, n
 
 
+def solver_overrides(items: list[str]) -> dict:
+    """``{key: value}`` of ``KEY=VALUE`` items, each value read as JSON where it parses (else text)."""
+    out = {}
+    for item in items:
+        key, sep, value = item.partition("=")
+        if not sep:
+            raise SystemExit(f"--set needs KEY=VALUE, got {item!r}")
+        try:
+            out[key] = json.loads(value)
+        except json.JSONDecodeError:
+            out[key] = value
+    return out
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--blades", type=int, default=50)
@@ -142,22 +159,26 @@ def main() -> None:
     parser.add_argument("--report", type=Path, nargs="+", help="summarise these record files and stop")
     parser.add_argument("--retry", type=Path, nargs="+", help="re-evaluate blades of these record files")
     parser.add_argument("--retry-status", default="not_converged", help="which records --retry takes")
+    parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                        help="override a solver: key (repeatable), e.g. alpha_u=0.95")
     args = parser.parse_args()
+    solver = solver_overrides(args.set)
     if args.report:
         report(read_records(args.report))
         return
     k, n = args.shard
     done = {r["index"] for r in read_records([args.out]) if "index" in r}
     if args.retry:
-        tasks = [(r["index"], r["mode"], r["continuity"], r["parameters"], r["level"], args.max_iter)
+        tasks = [(r["index"], r["mode"], r["continuity"], r["parameters"], r["level"], args.max_iter, solver)
                  for r in read_records(args.retry) if r["status"] == args.retry_status and r["index"] not in done]
     else:
         blades = draw_blades(args.blades, args.seed)
-        tasks = [(i, m, c, p, args.level, args.max_iter) for i, (m, c, p) in enumerate(blades)
+        tasks = [(i, m, c, p, args.level, args.max_iter, solver) for i, (m, c, p) in enumerate(blades)
                  if i % n == k and i not in done]
     print(f"{platform.node()} {platform.processor() or platform.machine()}, {args.workers} workers, "
           + (f"retrying the {args.retry_status} blades of {len(args.retry)} record files"
              if args.retry else f"level {args.level}, seed {args.seed}, shard {k}/{n}")
+          + (f", solver overrides {solver}" if solver else "")
           + f": {len(done)} blades already in {args.out}, {len(tasks)} to evaluate")
     args.out.parent.mkdir(parents=True, exist_ok=True)
     with ProcessPoolExecutor(args.workers) as pool, args.out.open("a") as fh:

@@ -236,6 +236,7 @@ VALIDATED_REYNOLDS = {"sst": (1.0e5, 1.0e7), "laminar": (1.0, 2.0e3)}
 #: Fields of :class:`solver.SimpleSettings` that are not keys of the ``solver:`` section, and why.
 SETTINGS_NOT_CONFIGURED = {
     "monitor_groups": "the pipeline monitors the blade (its forces, with C_max)",
+    "stop_monitors": "the pipeline's stop test waits for the objectives' monitors (F_Y and C_max)",
     "momentum_solver": "linear-solver settings objects, tuned per equation in the solver",
     "pressure_solver": "linear-solver settings objects, tuned per equation in the solver",
     "blas_threads": "how a machine runs the solve, not what it computes (the results are the same); the "

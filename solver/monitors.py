@@ -70,11 +70,21 @@ def stationary(monitors: dict, cfg: SimpleSettings) -> bool:
 def settled(res: dict, monitors: dict, it: int, cfg: SimpleSettings) -> bool:
     """Early stop of a solve whose monitors are within ``stop_tol`` of their converged values while the
     residuals stall above ``tol`` (limiter chatter, a k residual floor): every scaled residual is below
-    ``stall_tol`` and every monitor passes :func:`near_fixed_point` over windows of ``stop_window``
-    iterations. Checked every 10 iterations; off when ``stall_tol`` is None."""
+    ``stall_tol`` and every monitor of :func:`stop_monitor_names` passes :func:`near_fixed_point` over
+    windows of ``stop_window`` iterations. Checked every 10 iterations; off when ``stall_tol`` is None."""
     if cfg.stall_tol is None or it < 2 * cfg.stop_window or it % 10 or max(res.values()) >= cfg.stall_tol:
         return False
-    return all(near_fixed_point(np.asarray(v, dtype=float), cfg.stop_window, cfg.stop_tol) for v in monitors.values())
+    return all(near_fixed_point(np.asarray(monitors[name], dtype=float), cfg.stop_window, cfg.stop_tol)
+               for name in stop_monitor_names(monitors, cfg))
+
+
+def stop_monitor_names(monitors: dict, cfg: SimpleSettings) -> tuple[str, ...]:
+    """The monitors :func:`settled` waits for: ``cfg.stop_monitors``, or all when it is empty. An unknown
+    name is a ValueError that lists the monitors there are."""
+    unknown = sorted(set(cfg.stop_monitors) - set(monitors))
+    if unknown:
+        raise ValueError(f"stop_monitors {unknown} are not monitored; the monitors are {sorted(monitors)}")
+    return cfg.stop_monitors or tuple(monitors)
 
 
 def near_fixed_point(x: np.ndarray, window: int, tol: float) -> bool:

@@ -38,6 +38,7 @@ from .monitors import (
     new_monitors,
     settled,
     stationary,
+    stop_monitor_names,
     update_monitors,
 )
 from .pressure import correct_flux, mass_imbalance, predicted_velocity_flux, pressure_correction_system, rhie_chow_flux
@@ -177,6 +178,7 @@ def _iterate(problem: Problem, settings: SimpleSettings, state: FlowState | None
     if problem.turbulence is not None:
         hist.update(k=[], omega=[])
     monitors = new_monitors(settings.monitor_groups)
+    stop_monitor_names(monitors, settings)          # an unknown name fails here, not at the first stop test
     solver_state: dict = {}
     status, message = "not_converged", f"reached max_iter = {settings.max_iter}"
     classification = None

@@ -107,7 +107,8 @@ def test_saved_config_reads_back_the_same():
 
 def test_solver_settings_are_the_solvers_own_with_the_blade_monitored():
     settings = simple_settings(load_config())
-    assert settings == dataclasses.replace(SimpleSettings(), monitor_groups=("blade",))
+    assert settings == dataclasses.replace(SimpleSettings(), monitor_groups=("blade",),
+                                           stop_monitors=("fy:blade", "c_max"))
     changed = simple_settings(load_config(overrides=["solver.alpha_u=0.5", "solver.max_iter=7"]))
     assert (changed.alpha_u, changed.max_iter) == (0.5, 7)
 

@@ -1,11 +1,14 @@
 """Stopping tests on the monitor histories: the short-window stop (:func:`solver.monitors.settled`) and the
 early recognition of an established oscillation or drift (:func:`solver.monitors.established`)."""
 
+import dataclasses
+
 import numpy as np
+import pytest
 
 from solver import SimpleSettings
 from solver.convergence import classify
-from solver.monitors import established, near_fixed_point, settled
+from solver.monitors import established, near_fixed_point, settled, stop_monitor_names
 
 CFG = SimpleSettings()          # classify_window 200, classify_tol 1e-3, stop_window 50, stop_tol 1e-3
 RES = {"u": 1e-6, "v": 1e-6, "continuity": 1e-6}
@@ -23,6 +26,17 @@ def test_settled_needs_the_short_window_stationary_and_the_residuals_below_stall
     assert not settled(RES, _hist(decaying), 301, CFG)                          # checked every 10 iterations
     drifting = 10.0 + 3e-4 * it                      # 1.5e-3 relative over 50 iterations > stop_tol
     assert not settled(RES, _hist(drifting), 300, CFG)
+
+
+def test_settled_waits_only_for_the_stop_monitors_and_rejects_unknown_names():
+    it = np.arange(300)
+    hist = {**_hist(10.0 + np.exp(-it / 20.0)), "fx:blade": list(1.0 + 3e-4 * it)}   # F_X still drifting
+    assert not settled(RES, hist, 300, CFG)
+    objectives = dataclasses.replace(CFG, stop_monitors=("fy:blade", "c_max"))
+    assert settled(RES, hist, 300, objectives)
+    assert stop_monitor_names(hist, CFG) == ("c_max", "fy:blade", "fx:blade")
+    with pytest.raises(ValueError, match=r"\['lift'\] are not monitored; the monitors are \['c_max', 'fx:blade'"):
+        stop_monitor_names(hist, dataclasses.replace(CFG, stop_monitors=("lift", "c_max")))
 
 
 def test_a_slow_geometric_decay_whose_tail_exceeds_the_tolerance_is_not_near_its_fixed_point():
