@@ -88,9 +88,11 @@ def _lookup(registry: dict, kind: str, name: str):
 def outer_iteration(problem: Problem, s: FlowState, cfg: SimpleSettings, solver_state: dict) -> dict:
     """One SIMPLE(C) iteration, updating ``s`` in place; returns the scaled residuals."""
     m, bnd, rho, mu = problem.mesh, problem.bnd, problem.fluid.rho, problem.fluid.mu
-    # 1. boundary values and gradients
-    u_b = bnd.velocity(m, s.u, s.grad_u)
-    grad_u = ls_gradient(m, s.u, u_b)
+    # 1. boundary values and gradients (the turbulence step of the iteration before computed the same
+    #    gradient of the same velocity with the same boundary values: kept, not recomputed)
+    grad_u = solver_state.pop("grad_u", None)
+    if grad_u is None:
+        grad_u = ls_gradient(m, s.u, bnd.velocity(m, s.u, s.grad_u))
     u_b = bnd.velocity(m, s.u, grad_u)
     s.grad_u = grad_u
     p_b = bnd.pressure(m, s.p, s.grad_p)
@@ -138,6 +140,7 @@ def outer_iteration(problem: Problem, s: FlowState, cfg: SimpleSettings, solver_
             rho, mu, solver_state)
         check_finite("k", "k or omega", s.k, s.omega)
         res.update(r_t)
+        solver_state["grad_u"] = grad_u_new
     return res
 
 
