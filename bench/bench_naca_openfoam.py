@@ -24,6 +24,11 @@ c_f < 0), iterations, seconds, the spread of C_L over the last 200 iterations an
     OMP_NUM_THREADS=1 python bench/bench_naca_openfoam.py --codes openfoam --levels coarse --out naca.jsonl
     OMP_NUM_THREADS=1 python bench/bench_naca_openfoam.py --codes millfoil --alphas 0 10 --out naca.jsonl
     python bench/bench_naca_openfoam.py --report naca.jsonl        # table + docs/figures/validation/*.png
+
+Restart test (docs/validation.md, "Findings (session 3)"): ``--mf-start openfoam`` starts millfoil from
+OpenFOAM's converged fields of the same level and angle (the case must exist under ``--work``); the record's
+code is then ``millfoil...@openfoam``. A converged millfoil solution that differs from OpenFOAM's is then a
+difference of the discrete equations, not of the start (hysteresis), and the drift shows which way.
 """
 
 from __future__ import annotations
@@ -49,6 +54,7 @@ from openfoam_case import (  # noqa: E402
     execution_times,
     field_body,
     latest_time,
+    openfoam_state,
     read_dat,
     read_field,
     run_utility,
@@ -278,8 +284,12 @@ def openfoam_record(directory: Path, mesh) -> dict:
 
 # ---------------------------------------------------------------------------------------------- millfoil
 def run_millfoil(level: str, alpha_deg: float, max_iter: int, state_file: Path | None = None,
-                 max_seconds: float | None = None, variant: dict | None = None) -> dict:
+                 max_seconds: float | None = None, variant: dict | None = None,
+                 start_from: Path | None = None) -> dict:
     """The validation case's own settings (:func:`run_naca0012`) without the point-vortex correction.
+
+    ``start_from``: a finished OpenFOAM case of the same mesh; its fields (:func:`openfoam_state`) are
+    written to ``state_file`` (required then) and the run starts from them instead of potential flow.
 
     ``variant`` (experiments, ``--mf-variant key=value``): :class:`solver.SimpleSettings` fields
     (``limiter``, ``limiter_k``, ``pressure_gradient``, ..., through :func:`naca_settings`) and
@@ -300,6 +310,8 @@ def run_millfoil(level: str, alpha_deg: float, max_iter: int, state_file: Path |
     conv = Convergence(max_iter=max_iter)
     settings = naca_settings(max_iter=conv.chunk, **simple) if simple else None
     turbulence = SST(wall_treatment="low_re", **sst) if sst else None
+    if start_from is not None:
+        write_openfoam_start(start_from, level, alpha_deg, state_file, turbulence or SST(wall_treatment="low_re"))
     t0 = time.perf_counter()
     r = run_naca0012(alpha_deg, level, vortex_correction=False, convergence=conv, state_file=state_file,
                      max_seconds=max_seconds, settings=settings, turbulence=turbulence)
@@ -312,6 +324,16 @@ def run_millfoil(level: str, alpha_deg: float, max_iter: int, state_file: Path |
     j = res.mesh.boundary_local("wall")
     rec["wall"] = wall_record(res.mesh, res.boundary_pressure()[j], res.wall_shear("wall"))
     return rec
+
+
+def write_openfoam_start(case: Path, level: str, alpha_deg: float, state_file: Path, turbulence) -> None:
+    """Write OpenFOAM's converged fields of ``case`` as a millfoil restart file (iteration 0, no history)."""
+    from solver import Fluid, Problem
+    from solver.validation.naca0012 import _save_state, boundary_conditions
+
+    problem = Problem.create(naca0012_cmesh(level, alpha_deg=alpha_deg).mesh, boundary_conditions(alpha_deg, True),
+                             Fluid(1.0, 1.0 / REYNOLDS), turbulence=turbulence)
+    _save_state(openfoam_state(case, problem), state_file, 0)
 
 
 def variant_name(variant: dict) -> str:
@@ -499,6 +521,8 @@ def main(argv=None) -> None:
     parser.add_argument("--mf-iterations", type=int, default=6000, help="millfoil iteration cap")
     parser.add_argument("--mf-variant", nargs="*", default=[], metavar="KEY=VALUE",
                         help="millfoil experiment: limiter=none, face_interpolation=linear, ... (run_millfoil)")
+    parser.add_argument("--mf-start", choices=["potential", "openfoam"], default="potential",
+                        help="millfoil start: potential flow (validation) or OpenFOAM's converged fields (restart)")
     parser.add_argument("--mf-seconds", type=float, default=None, help="millfoil wall-time cap per angle")
     parser.add_argument("--work", type=Path, default=ROOT / "runs" / "bench_naca_openfoam")
     parser.add_argument("--out", type=Path, default=None, help="JSON lines file (appended)")
@@ -524,10 +548,11 @@ def main(argv=None) -> None:
                                                                       args.of_alpha_u)
                 else:
                     variant = dict(kv.split("=", 1) for kv in args.mf_variant)
-                    code = variant_name(variant)
+                    from_of = args.mf_start == "openfoam"
+                    code = variant_name(variant) + ("@openfoam" if from_of else "")
                     case.mkdir(parents=True, exist_ok=True)
                     rec = run_millfoil(level, alpha, args.mf_iterations, case / f"{code}_state.npz", args.mf_seconds,
-                                       variant)
+                                       variant, case / "openfoam" if from_of else None)
                 rec = {"level": level, "alpha": alpha, "code": code, **rec,
                        "time": time.strftime("%Y-%m-%d %H:%M"), "load": round(os.getloadavg()[0], 1)}
                 if args.out:

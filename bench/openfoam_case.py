@@ -226,3 +226,59 @@ def _entry_values(text: str, at: int, nc: int, n: int | None) -> np.ndarray:
     rest = text[m.end():text.index(";", m.end())]
     v = np.array(rest.replace("(", " ").replace(")", " ").split(), float)
     return np.tile(v, (n or 1, 1)) if nc > 1 else np.full(n or 1, float(v[0]))
+
+
+def face_order(mesh) -> tuple[np.ndarray, np.ndarray]:
+    """``(faces, sign)``: OpenFOAM face ``j`` (internal faces, then the patches in group order, without
+    ``frontAndBack``) is millfoil face ``faces[j]``, its area vector ``sign[j]`` times millfoil's (-1 where
+    :func:`polymesh_arrays` swapped owner and neighbour to get owner < neighbour)."""
+    ni = mesh.n_internal
+    o, n = mesh.owner[:ni], mesh.neighbour[:ni]
+    swap = o > n
+    order = np.lexsort((np.where(swap, o, n), np.where(swap, n, o)))
+    bface = np.concatenate([mesh.boundary[g] for g in mesh.group_names])
+    return np.concatenate([order, bface]), np.concatenate([np.where(swap[order], -1.0, 1.0), np.ones(len(bface))])
+
+
+def read_face_flux(path: Path, mesh, rho: float = 1.0) -> np.ndarray:
+    """An ASCII ``surfaceScalarField`` ``phi`` (volumetric flux through the extruded faces, m³/s) as
+    millfoil's face mass flux ``(nf,)`` per unit depth, kg/(s m), owner -> neighbour in millfoil's face
+    order (:func:`face_order`); patches without a ``value`` list (``empty``) are skipped."""
+    text = path.read_text()
+    faces, sign = face_order(mesh)
+    phi = np.zeros(len(mesh.owner))
+    ni = mesh.n_internal
+    phi[faces[:ni]] = sign[:ni] * _entry_values(text, text.index("internalField"), 1, ni)
+    body = text[text.index("{", text.index("boundaryField")) + 1:]
+    blocks = {m.group(1): m.group(2) for m in re.finditer(r"^\s*([\w\"().|]+)\s*\{([^{}]*)\}", body, re.M)}
+    for g in mesh.group_names:
+        block = blocks.get(g, "")
+        v = block.find("value")
+        if v >= 0:
+            phi[mesh.boundary[g]] = _entry_values(block, v, 1, len(mesh.boundary[g]))
+    return rho * phi / DEPTH
+
+
+def openfoam_state(directory: Path, problem):
+    """A :class:`solver.FlowState` of ``problem`` (same mesh as the case) from the latest written time of a
+    finished ``simpleFoam`` ``kOmegaSST`` case: U, p (kinematic, times rho; plus ``2/3 rho k``, which
+    millfoil's pressure holds), the face mass flux (:func:`read_face_flux`), k, omega, nut; the gradients
+    are the least-squares ones of these fields and the wall viscosity the molecular one (``low_re``).
+    The restart test of docs/validation.md: millfoil started from OpenFOAM's converged solution."""
+    from solver.gradient import ls_gradient
+    from solver.problem import FlowState
+
+    m, b, rho = problem.mesh, problem.bnd, problem.fluid.rho
+    last = latest_time(directory)
+    if last is None:
+        raise FileNotFoundError(f"no written time in {directory}")
+    nc = m.n_cells
+    u = read_field(last / "U", nc)[0][:, :2].copy()
+    k, omega, nut = (read_field(last / name, nc)[0] for name in ("k", "omega", "nut"))
+    p = rho * (read_field(last / "p", nc)[0] + 2.0 / 3.0 * k)
+    grad_u = ls_gradient(m, u, b.velocity(m, u, np.zeros((nc, 2, 2))))
+    grad_u = ls_gradient(m, u, b.velocity(m, u, grad_u))
+    grad_p = ls_gradient(m, p, b.pressure(m, p, np.zeros((nc, 2))))
+    setup = problem.turbulence_setup
+    mu_wall = None if setup is None else np.full(len(setup.wall_local), problem.fluid.mu)
+    return FlowState(u, p, read_face_flux(last / "phi", m, rho), grad_p, grad_u, k, omega, nut, mu_wall)

@@ -93,3 +93,23 @@ def test_read_field_round_trip(tmp_path):
     write_file(tmp_path, "0/p", "volScalarField", field_body("[0 2 -2 0 0 0 0]", "0.25", {}))
     p, _ = read_field(tmp_path / "0/p", 4)
     assert np.allclose(p, 0.25) and p.shape == (4,)
+
+
+def test_read_face_flux_maps_faces_and_signs(tmp_path):
+    from openfoam_case import DEPTH, face_order, read_face_flux
+
+    m = _mesh()
+    flux = np.arange(len(m.owner), dtype=float) - 7.5          # millfoil mass flux per unit depth, rho = 2
+    faces, sign = face_order(m)
+    ni = m.n_internal
+    of_internal = sign[:ni] * flux[faces[:ni]] / 2.0 * DEPTH     # OpenFOAM's volumetric flux, its orientation
+    lines = "\n".join(f"{v:.17g}" for v in of_internal)
+    patches = "".join(f"    {g}\n    {{\n        type calculated;\n        value nonuniform List<scalar> "
+                      f"{len(m.boundary[g])}\n(\n" + "\n".join(f"{v:.17g}" for v in flux[m.boundary[g]] / 2.0 * DEPTH)
+                      + "\n)\n;\n    }\n" for g in m.group_names)
+    body = (f"dimensions [0 3 -1 0 0 0 0];\ninternalField nonuniform List<scalar> {ni}\n(\n{lines}\n)\n;\n"
+            f"boundaryField\n{{\n{patches}    frontAndBack {{ type empty; value nonuniform List<scalar> 0(); }}\n}}\n")
+    write_file(tmp_path, "1/phi", "surfaceScalarField", body)
+    assert np.allclose(read_face_flux(tmp_path / "1/phi", m, rho=2.0), flux, rtol=1e-14, atol=1e-12)
+    # owner < neighbour in OpenFOAM's numbering: the faces whose sign flips are exactly the swapped ones
+    assert np.array_equal(sign[:ni] < 0, m.owner[faces[:ni]] > m.neighbour[faces[:ni]])
