@@ -56,6 +56,10 @@ class SST:
     k_floor, omega_floor: positivity floors relative to the inlet k and omega (values are clipped).
     face_interpolation: face values of the diffusivities ``mu + sigma mu_t``: ``"log_mean"`` (default) or
         ``"linear"`` (:data:`FACE_DIFFUSIVITIES`).
+    omega_wall_flux: omega diffusivity of the faces between a wall cell (omega fixed) and the next cells:
+        ``"analytic"`` (default, scaled by :func:`omega_flux_factor` so that the two-point difference carries
+        the flux of the analytic near-wall omega) or ``"two_point"`` (unscaled, as OpenFOAM's
+        ``omegaWallFunction``), :data:`OMEGA_WALL_FLUXES`.
     """
 
     wall_treatment: str = "automatic"
@@ -71,6 +75,7 @@ class SST:
     k_floor: float = 1e-10
     omega_floor: float = 1e-6
     face_interpolation: str = "log_mean"
+    omega_wall_flux: str = "analytic"
 
     def __post_init__(self):
         if self.wall_treatment not in WALL_TREATMENTS:
@@ -79,7 +84,8 @@ class SST:
         for name, value, registry in (("production_measure", self.production_measure, PRODUCTION_MEASURES),
                                       ("omega_production", self.omega_production, OMEGA_PRODUCTIONS),
                                       ("convection", self.convection, CONVECTION_SCHEMES),
-                                      ("face_interpolation", self.face_interpolation, FACE_DIFFUSIVITIES)):
+                                      ("face_interpolation", self.face_interpolation, FACE_DIFFUSIVITIES),
+                                      ("omega_wall_flux", self.omega_wall_flux, OMEGA_WALL_FLUXES)):
             if value not in registry:
                 raise ValueError(f"unknown {name} {value!r}; choose from {sorted(registry)}")
 
@@ -222,6 +228,14 @@ OMEGA_PRODUCTIONS: dict[str, Callable] = {
 }
 
 
+#: Factor on the omega diffusivity of the faces next to the wall cells by name: ``f(y1, y2, yf, weight_log)
+#: -> (nn,)`` (:func:`omega_flux_factor`'s arguments); ``"two_point"`` leaves the plain two-point flux.
+OMEGA_WALL_FLUXES: dict[str, Callable] = {
+    "analytic": omega_flux_factor,
+    "two_point": lambda y1, y2, yf, weight_log: np.ones_like(y1),
+}
+
+
 def turbulence_step(model: SST, setup: SSTSetup, mesh: FVMesh, pattern, bnd: BoundaryData, u: np.ndarray,
                     grad_u: np.ndarray, flux: np.ndarray, k: np.ndarray, omega: np.ndarray, rho: float,
                     mu: float, solver_state: dict) -> tuple[dict, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -263,8 +277,8 @@ def turbulence_step(model: SST, setup: SSTSetup, mesh: FVMesh, pattern, bnd: Bou
     gam = face_diffusivity(mesh, mu + rho * sig_w * nu_t, (mu + rho * sig_w * nu_t)[ob], model.face_interpolation)
     if setup.near_faces is not None and len(setup.near_faces):     # omega flux out of the fixed wall cells
         y = setup.near_y
-        gam[setup.near_faces] *= omega_flux_factor(y[:, 0], y[:, 1], y[:, 2],
-                                                   wall.production_weight[setup.near_wall_cell])
+        gam[setup.near_faces] *= OMEGA_WALL_FLUXES[model.omega_wall_flux](
+            y[:, 0], y[:, 1], y[:, 2], wall.production_weight[setup.near_wall_cell])
     gho = convection_gradient(mesh, omega, w_b, grad_w, model.convection, model.limiter, model.limiter_k)
     sys_w = scalar_system(mesh, pattern, omega, w_b, setup.inlet, flux, gam, grad_w, gho, sp, su,
                           model.alpha_omega, wc, wall.omega_cells)

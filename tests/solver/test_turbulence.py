@@ -141,6 +141,19 @@ def test_omega_flux_factor_makes_two_point_flux_exact(power, weight_log):
     assert np.allclose(phi * two_point, -power * yf ** (-power - 1.0)) and np.all(phi < 1.0)
 
 
+def test_omega_wall_flux_options():
+    """``analytic`` is the flux factor (hand value for omega ~ 1/y², y1 = 1, y2 = 3, yf = 2:
+    2 y1² y2² / (yf³ (y1 + y2)) = 18/32); ``two_point`` leaves the diffusivity unscaled (OpenFOAM)."""
+    from solver.turbulence.sst import OMEGA_WALL_FLUXES
+
+    y1, y2, yf, wl = np.array([1.0]), np.array([3.0]), np.array([2.0]), np.array([0.0])
+    assert OMEGA_WALL_FLUXES["analytic"](y1, y2, yf, wl) == pytest.approx(18.0 / 32.0, rel=1e-15)
+    assert np.array_equal(OMEGA_WALL_FLUXES["two_point"](y1, y2, yf, wl), [1.0])
+    assert SST().omega_wall_flux == "analytic"
+    with pytest.raises(ValueError, match="omega_wall_flux.*two_point"):
+        SST(omega_wall_flux="none")
+
+
 def test_segment_distance():
     a, b = np.array([0.0, 0.0]), np.array([1.0, 0.0])
     p = np.array([[0.5, 2.0], [-3.0, 4.0], [2.0, -1.0]])
