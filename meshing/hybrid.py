@@ -79,13 +79,14 @@ def _densify(points: np.ndarray, max_len: float) -> tuple[np.ndarray, np.ndarray
     return points[owner] + frac[:, None] * seg[owner], start
 
 
-def wall_spacing(profile_points: np.ndarray, corner_mask: np.ndarray, h_max: float, spec: MeshSpec,
-                 dense: np.ndarray, dense_of: np.ndarray) -> np.ndarray:
-    """Target wall spacing (m) at every point of the densified wall ``dense``.
+def wall_spacing(profile_points: np.ndarray, corner_mask: np.ndarray, spec: MeshSpec, dense: np.ndarray,
+                 dense_of: np.ndarray) -> Callable[[float], np.ndarray]:
+    """Target wall spacing (m) at every point of the densified wall ``dense``, as a function of ``h_max``.
 
     ``min(h_max, h_corner + g d_corner, min_j(h_turn_j + g d_j))``: ``h_corner = corner_ratio * h_max``
     at sharp corners, ``h_turn = max_turn / curvature`` on curved walls, ``g = wall_gradient``, ``d``
-    the distance along the wall.
+    the distance along the wall. The distances do not depend on ``h_max``: computed once here (dense x
+    curved-point matrices), not in each step of :func:`resample_wall`'s bisection on ``h_max``.
     """
     s = _arclength(dense)
     perimeter = s[-1] + np.linalg.norm(dense[0] - dense[-1])
@@ -100,7 +101,11 @@ def wall_spacing(profile_points: np.ndarray, corner_mask: np.ndarray, h_max: flo
     h_curv = np.min(h_turn[None, :] + spec.wall_gradient * d, axis=1) if len(src) else np.inf
     dc = np.abs(s[:, None] - s[dense_of[corner_mask]][None, :])
     d_corner = np.min(np.minimum(dc, perimeter - dc), axis=1)
-    return np.minimum(np.minimum(h_max, spec.corner_ratio * h_max + spec.wall_gradient * d_corner), h_curv)
+
+    def spacing(h_max: float) -> np.ndarray:
+        return np.minimum(np.minimum(h_max, spec.corner_ratio * h_max + spec.wall_gradient * d_corner), h_curv)
+
+    return spacing
 
 
 def _arclength(points: np.ndarray) -> np.ndarray:
@@ -123,8 +128,10 @@ def resample_wall(profile, spec: MeshSpec) -> tuple[np.ndarray, np.ndarray]:
     s = _arclength(closed)
     ds = np.diff(s)
 
+    spacing = wall_spacing(pts, corner_mask, spec, dense, dense_of)
+
     def count(h_max: float) -> tuple[float, np.ndarray]:
-        h = wall_spacing(pts, corner_mask, h_max, spec, dense, dense_of)
+        h = spacing(h_max)
         w = 1.0 / h
         return float(np.sum(0.5 * (w + np.roll(w, -1)) * ds)), w
 
