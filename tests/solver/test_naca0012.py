@@ -177,3 +177,11 @@ def test_sst_alpha10_coarse_matches_cfl3d():
     assert report.passed, report
     d = report.details["alpha10"]
     assert d["status"] == "converged" and d["y_plus_max"] < 1.0
+
+
+def test_the_angles_run_in_processes_with_their_results_in_order():
+    """``validate_naca0012``'s angles are independent solves, mapped over processes in argument order."""
+    from solver.validation.naca0012 import map_in_processes
+
+    assert map_in_processes(divmod, [(7, 2), (9, 4), (1, 1)], workers=2) == [(3, 1), (2, 1), (1, 0)]
+    assert map_in_processes(divmod, [(7, 2)]) == [(3, 1)]                  # one item: in this process
