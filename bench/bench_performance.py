@@ -46,10 +46,12 @@ def iterations_within(history: np.ndarray, tol: float) -> int:
 
 def run_case(raw: dict, overrides: list[str]) -> dict:
     """One evaluation of the blade configuration ``raw`` (a mapping) with ``solver.<key>=value`` overrides."""
+    from bench_robustness import solver_overrides
+
     from optimizer.config import Config
     from optimizer.pipeline import evaluate
 
-    raw = {**raw, "solver": {**raw.get("solver", {}), **_parse(overrides)}}
+    raw = {**raw, "solver": {**raw.get("solver", {}), **solver_overrides(overrides)}}
     c0, t0 = time.process_time(), time.perf_counter()
     ev = evaluate(Config.from_mapping(raw))
     cpu, wall = time.process_time() - c0, time.perf_counter() - t0
@@ -63,17 +65,6 @@ def run_case(raw: dict, overrides: list[str]) -> dict:
                    lift_0_1=iterations_within(fy, 1e-3))
         row.update(s_lift_0_5=row["lift_0_5"] * per_it, s_lift_0_1=row["lift_0_1"] * per_it)
     return row
-
-
-def _parse(overrides: list[str]) -> dict:
-    out = {}
-    for item in overrides:
-        key, _, value = item.partition("=")
-        try:
-            out[key] = json.loads(value)
-        except json.JSONDecodeError:
-            out[key] = value
-    return out
 
 
 def cases(n_random: int, levels: list[str]) -> list[tuple[str, dict]]:
