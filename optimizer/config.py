@@ -257,6 +257,8 @@ SETTING_RULES: dict[str, dict[str, Any]] = {
     "limiter": {"choices": ("venkatakrishnan", "barth_jespersen", "none")},
     "limiter_k": {"gt": 0, "le": 1000, "why": "Venkatakrishnan's K: 0.3-10 in practice, and no limiting at all "
                   "long before 1000"},
+    "limiter_iterations": {"ge": 0, "le": 100_000, "why": "iterations of the limited start-up; None: limited "
+                           "throughout"},
     "max_iter": {"ge": 1, "le": 100_000, "why": "the blade solves converge in 1 000-3 000 iterations; 100 000 on "
                  "the medium mesh are ~3 h"},
     "tol": {"ge": 1e-12, "le": 1, "why": "a scaled residual; below 1e-12 it stalls at round-off"},

@@ -32,6 +32,12 @@ class SimpleSettings:
     convection: ``"linear_upwind"`` (second order, deferred correction) or ``"upwind"``
         (:data:`solver.assembly.CONVECTION_SCHEMES`).
     limiter, limiter_k: gradient limiter for convection (:data:`solver.gradient.LIMITERS`).
+    limiter_iterations: the limiter acts in the first ``limiter_iterations`` iterations only, the unlimited
+        linear-upwind reconstruction (OpenFOAM's ``linearUpwind``) after them; None (default): throughout.
+        From a potential or uniform start the unlimited scheme diverges within a few iterations (the slip
+        velocity meeting the no-slip wall), while on a settled boundary layer the limiter clips the young
+        layer near the leading edge and costs lift near stall (docs/validation.md, "Findings (session 3)").
+        The stop tests wait until the limiter is off, so the solution returned is the unlimited one.
     max_iter: iteration cap. tol: scaled-residual tolerance for u, v and continuity.
     monitor_tol, monitor_window: integral quantities must vary less than ``monitor_tol`` (relative)
         over the last ``monitor_window`` iterations.
@@ -76,6 +82,7 @@ class SimpleSettings:
     convection: str = "linear_upwind"
     limiter: str = "venkatakrishnan"
     limiter_k: float = 5.0
+    limiter_iterations: int | None = None
     max_iter: int = 2000
     tol: float = 1e-6
     monitor_tol: float = 1e-5

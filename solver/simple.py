@@ -85,6 +85,19 @@ def _lookup(registry: dict, kind: str, name: str):
         raise ValueError(f"unknown {kind} {name!r}; choose from {sorted(registry)}") from None
 
 
+def active_limiter(cfg: SimpleSettings, solver_state: dict) -> str:
+    """The convection limiter of this iteration: ``cfg.limiter`` up to ``cfg.limiter_iterations``, then none."""
+    limited_until = cfg.limiter_iterations
+    if limited_until is not None and solver_state.get("iteration", 0) > limited_until:
+        return "none"
+    return cfg.limiter
+
+
+def limiter_settled(cfg: SimpleSettings, iteration: int) -> bool:
+    """True once the limiter of the start-up (``cfg.limiter_iterations``) is off or there is none."""
+    return cfg.limiter_iterations is None or iteration > cfg.limiter_iterations
+
+
 def outer_iteration(problem: Problem, s: FlowState, cfg: SimpleSettings, solver_state: dict) -> dict:
     """One SIMPLE(C) iteration, updating ``s`` in place; returns the scaled residuals."""
     m, bnd, rho, mu = problem.mesh, problem.bnd, problem.fluid.rho, problem.fluid.mu
@@ -98,7 +111,8 @@ def outer_iteration(problem: Problem, s: FlowState, cfg: SimpleSettings, solver_
     p_b = bnd.pressure(m, s.p, s.grad_p)
     s.grad_p = ls_gradient(m, s.p, p_b)
     p_b = bnd.pressure(m, s.p, s.grad_p)
-    grad_ho = convection_gradient(m, s.u, u_b, grad_u, cfg.convection, cfg.limiter, cfg.limiter_k)
+    grad_ho = convection_gradient(m, s.u, u_b, grad_u, cfg.convection, active_limiter(cfg, solver_state),
+                                  cfg.limiter_k)
     # 2. momentum predictor
     grad_p_mom = _lookup(PRESSURE_GRADIENTS, "pressure_gradient", cfg.pressure_gradient)(m, s.p, p_b, s.grad_p)
     turb = problem.turbulence
@@ -188,6 +202,7 @@ def _iterate(problem: Problem, settings: SimpleSettings, state: FlowState | None
     it = 0
     for it in range(1, settings.max_iter + 1):
         last_good = s.copy()
+        solver_state["iteration"] = it
         try:
             with np.errstate(all="ignore"):
                 res = outer_iteration(problem, s, settings, solver_state)
@@ -205,6 +220,8 @@ def _iterate(problem: Problem, settings: SimpleSettings, state: FlowState | None
         update_monitors(problem, s, monitors, settings)
         if callback is not None:
             callback(it, res, s)
+        if not limiter_settled(settings, it):
+            continue                    # the start-up solution is not the answer: no stop test yet
         if max(res.values()) < settings.tol and stationary(monitors, settings):
             status, message = "converged", (f"scaled residuals < {settings.tol:g} and monitors stationary "
                                             f"within {settings.monitor_tol:g} over {settings.monitor_window}"

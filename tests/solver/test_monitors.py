@@ -95,3 +95,14 @@ def test_an_oscillation_or_drift_that_would_settle_before_max_iter_goes_on_a_ste
     status, _, cls = established(_hist(drift), 600, CFG)
     assert status == "not_converged" and cls.status == "not_converged"
     assert established(_hist(drift), 600, SimpleSettings(early_classify=False)) is None
+
+
+def test_the_start_up_limiter_switches_off_after_its_iterations_and_holds_the_stop_tests_until_then():
+    from solver.simple import active_limiter, limiter_settled
+
+    start_up = dataclasses.replace(CFG, limiter_iterations=500)
+    assert active_limiter(start_up, {"iteration": 500}) == "venkatakrishnan"
+    assert active_limiter(start_up, {"iteration": 501}) == "none"
+    assert active_limiter(CFG, {"iteration": 10_000}) == "venkatakrishnan"      # None: limited throughout
+    assert not limiter_settled(start_up, 500) and limiter_settled(start_up, 501)
+    assert limiter_settled(CFG, 1)
