@@ -12,7 +12,9 @@ the force on the airfoil (body axes) is projected on the drag (along U∞) and l
 of the current C_L (:func:`vortex_velocity`, updated every 100 iterations; TMR's runs have the point-vortex
 correction too), with the TMR freestream turbulence (k = 9e-9 a², omega = 1e-6 rho a²/mu at M = 0.15, read
 from the CFL3D file header: intensity 5.16e-4, nu_t/nu = 0.009); ``farfield_out`` pressure outlet p = 0.
-Start: potential flow (:func:`potential_start`); SIMPLE, alpha_u 0.7, alpha_p 0.3 (:func:`naca_settings`).
+Start: potential flow (:func:`potential_start`); SIMPLE, alpha_u 0.7, alpha_p 0.3, the momentum gradient limited
+for the first 500 iterations only, Green-Gauss pressure gradient (:func:`naca_settings`); SST with the
+limited omega production and the two-point wall omega flux (:func:`naca_turbulence`).
 
 Compared with CFL3D SST on the 897x257 grid (``solver/validation/reference/tmr_naca0012_cfl3d_sst_*.csv``, copied
 from the TMR files): C_L, C_D at α = 0° and 10° (issue tolerances: α = 0: |C_L| <= 0.005, C_D within 8 %;
@@ -152,6 +154,23 @@ def potential_start(problem: Problem, u_inf, solver: SolverSettings = POTENTIAL_
     return s
 
 
+#: Iterations of a run (counted from the potential start, restarts included) in which the momentum
+#: linear-upwind gradient is limited (Venkatakrishnan, K = 5); after them it is unlimited, OpenFOAM's
+#: ``linearUpwind``. Unlimited from the start, the potential flow's slip velocity at the no-slip wall
+#: diverges within 4 iterations; limited throughout, the limiter clips the young boundary layer near the
+#: leading edge and costs lift near stall (docs/validation.md, "Findings (session 3)").
+LIMITER_ITERATIONS = 500
+
+
+def naca_turbulence() -> SST:
+    """The case's k-omega SST: SST-2003, ``low_re`` wall treatment, with OpenFOAM's (and Menter 2003's)
+    limited omega production and the two-point omega flux next to the wall cells. With these two and the
+    unlimited momentum gradient and Green-Gauss pressure gradient of :func:`naca_settings`, the lift on
+    the coarse mesh is within 1 % of OpenFOAM's ``kOmegaSST`` on the same mesh from 10 deg to C_L,max
+    (docs/validation.md, "Findings (session 3)" and "Adopted (session 4)")."""
+    return SST(wall_treatment="low_re", omega_production="limited", omega_wall_flux="two_point")
+
+
 def naca_settings(**overrides) -> SimpleSettings:
     """Settings of one chunk of outer iterations (:func:`run_naca0012` checks convergence between chunks:
     the solver's own stop test is disabled with ``tol = -1``; ``max_iter`` is the chunk length).
@@ -161,8 +180,13 @@ def naca_settings(**overrides) -> SimpleSettings:
     SIMPLEC coefficient ``V / (a_P/alpha_u - sum a_nb)`` of :mod:`solver.simple` turns negative where a
     cell's remaining mass imbalance (net inflow) exceeds ``(1/alpha_u - 1) a_P`` (measured: near the
     leading edge, and in the far-wake cells near the outflow plane); SIMPLE's ``V / a_P`` stays positive.
+
+    ``limiter_iterations`` counts the iterations of the whole run (:data:`LIMITER_ITERATIONS`):
+    :func:`run_naca0012` turns it into each chunk's own count. The pressure gradient of the momentum
+    source is Green-Gauss, as in OpenFOAM (``Gauss linear``).
     """
     base = dict(algorithm="simple", alpha_u=0.7, alpha_p=0.3, stall_tol=None, max_iter=100, tol=-1.0,
+                limiter_iterations=LIMITER_ITERATIONS, pressure_gradient="green_gauss",
                 monitor_groups=(),
                 momentum_solver=SolverSettings("gauss_seidel", 0.1, 8),
                 pressure_solver=SolverSettings("amg", 1e-3, 200))
@@ -260,7 +284,7 @@ def run_naca0012(alpha_deg: float = 0.0, level: str = "coarse", *, reynolds: flo
     (:data:`solver.validation.meshes.naca_mesh.LEVELS`) or ``mesh_spec``
     (a :class:`solver.validation.meshes.naca_mesh.CMeshSpec`).
 
-    ``turbulent``: k-omega SST (``turbulence`` or ``SST(wall_treatment="low_re")``) with the TMR freestream
+    ``turbulent``: k-omega SST (``turbulence`` or :func:`naca_turbulence`) with the TMR freestream
     turbulence; ``False`` runs laminar (harness checks at low ``reynolds``). The SIMPLEC loop runs in chunks
     of ``convergence.chunk`` iterations (``settings``, :func:`naca_settings`) on one state until
     :class:`Convergence` holds; ``callback(iteration, residuals, state)`` as in
@@ -277,7 +301,7 @@ def run_naca0012(alpha_deg: float = 0.0, level: str = "coarse", *, reynolds: flo
     fluid = Fluid(1.0, 1.0 / reynolds)
     model = None
     if turbulent:
-        model = turbulence or SST(wall_treatment="low_re")
+        model = turbulence or naca_turbulence()
 
     def make_problem(c_l=None):
         bcs = boundary_conditions(alpha_deg, turbulent, c_l if vortex_correction else None)
@@ -297,7 +321,8 @@ def run_naca0012(alpha_deg: float = 0.0, level: str = "coarse", *, reynolds: flo
     t0 = time.perf_counter()
     total, hist, w = 0, {}, convergence.window
     while True:
-        res = solve_steady(problem, gentle if done == 0 and total < startup else cfg, state, callback)
+        chunk_cfg = gentle if done == 0 and total < startup else cfg
+        res = solve_steady(problem, chunk_limiter(chunk_cfg, total + done), state, callback)
         total += res.iterations
         for k, v in res.residuals.items():
             hist.setdefault(k, []).extend(np.asarray(v).tolist())
@@ -310,7 +335,8 @@ def run_naca0012(alpha_deg: float = 0.0, level: str = "coarse", *, reynolds: flo
         last = {k: v[-1] for k, v in res.residuals.items() if len(v)}
         if progress is not None:
             progress(total, last, r.c_l, r.c_d)
-        if len(cls) > w and max(last.values()) < convergence.tol \
+        if len(cls) > w and limiter_off_since(cfg, total + done) >= (w + 1) * convergence.chunk \
+                and max(last.values()) < convergence.tol \
                 and np.ptp(cls[-w - 1:]) < convergence.cl_tol \
                 and np.ptp(cds[-w - 1:]) < convergence.cd_rel * abs(cds[-1]):
             status = "converged"
@@ -334,6 +360,22 @@ def run_naca0012(alpha_deg: float = 0.0, level: str = "coarse", *, reynolds: flo
     out = coefficients(res, alpha_deg, level if mesh_spec is None else "custom", reynolds, turbulent)
     out.history = {"c_l": cls, "c_d": cds, "chunk": convergence.chunk, "iterations_this_run": run_iterations}
     return out
+
+
+def chunk_limiter(cfg: SimpleSettings, iterations_done: int) -> SimpleSettings:
+    """``cfg`` for a chunk that starts after ``iterations_done`` iterations of the run: its
+    ``limiter_iterations`` (counted over the run) turned into the chunk's own count (0: unlimited
+    throughout the chunk); unchanged without a limited start-up."""
+    if cfg.limiter_iterations is None:
+        return cfg
+    return dataclasses.replace(cfg, limiter_iterations=max(cfg.limiter_iterations - iterations_done, 0))
+
+
+def limiter_off_since(cfg: SimpleSettings, iterations_done: int) -> int:
+    """Iterations of the run since the limited start-up ended (all of them without one). The stop test
+    of :func:`run_naca0012` waits until its whole C_L / C_D window lies after it: the start-up solution
+    is not the answer."""
+    return iterations_done - (cfg.limiter_iterations or 0)
 
 
 _STATE_FIELDS = ("u", "p", "flux", "grad_p", "grad_u", "k", "omega", "nu_t", "mu_wall")
