@@ -41,8 +41,9 @@ BLADE_PATCH_TYPES = {"inlet": "patch", "outlet": "patch", "top": "symmetry", "bo
 
 # --------------------------------------------------------------------------------------------- the case
 def write_case(directory: Path, speed: float, rho: float, mu: float, intensity: float, ratio: float,
-               iterations: int) -> None:
-    """``0/``, ``constant/`` and ``system/`` of the simpleFoam case (kinematic pressure, p = 0 at the outlet)."""
+               iterations: int, functions: str = "") -> None:
+    """``0/``, ``constant/`` and ``system/`` of the simpleFoam case (kinematic pressure, p = 0 at the outlet);
+    ``functions``: more function-object entries after ``forces`` (e.g. ``bench_blades_openfoam``'s C_max)."""
     nu = mu / rho
     k = 1.5 * (intensity * speed) ** 2
     omega = k / (nu * ratio)
@@ -63,7 +64,7 @@ def write_case(directory: Path, speed: float, rho: float, mu: float, intensity: 
         writeControl timeStep;
         writeInterval 1;
     }}
-}}
+{functions}}}
 """),
         "system/fvSchemes": ("dictionary", """ddtSchemes { default steadyState; }
 gradSchemes { default Gauss linear; }

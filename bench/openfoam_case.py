@@ -196,7 +196,10 @@ def _parse_list(text: str, start: int, n_comp: int) -> np.ndarray:
     """The ``n ( ... )`` list that follows position ``start`` of ``text``, ``(n,)`` or ``(n, n_comp)``."""
     m = re.compile(r"\s*(\d+)\s*\(").match(text, start)
     n = int(m.group(1))
-    end = text.index("\n)", m.end())
+    if n == 0:
+        return np.zeros((0, n_comp) if n_comp > 1 else 0)
+    # a long list is written one entry a line and closed by "\n)"; a short one inline, "3((0 0 0) ...)"
+    end = text.index("\n)" if text[m.end()] == "\n" else ("))" if n_comp > 1 else ")"), m.end())
     values = np.array(text[m.end():end].replace("(", " ").replace(")", " ").split(), float)
     return values.reshape(n, n_comp) if n_comp > 1 else values.reshape(n)
 
