@@ -1,8 +1,9 @@
 """Blades against OpenFOAM on the same mesh: lift, C_max and convergence class of millfoil and simpleFoam.
 
 For the paper's two blades (``table4``: the Table 4 C2 design blade, ``table5``: the Table 5 G1 tool-path
-blade) and the first ``--random`` random Table 6 blades of ``bench/bench_robustness.py``'s draw (seed 2013)
-at ``--level`` (default medium): builds the mesh once, runs OpenFOAM's ``simpleFoam`` + ``kOmegaSST`` on it
+blade) and the first ``--random`` random Table 6 blades of ``bench/bench_robustness.py``'s draw (seed 2013;
+``--indices``: those of the draw) at ``--level`` (default medium): builds the mesh once, runs OpenFOAM's
+``simpleFoam`` + ``kOmegaSST`` on it
 (the case of ``bench/bench_openfoam.py``: same inlet, outlet, symmetry and wall-function conditions, SIMPLEC
 0.9, bounded linearUpwind; ``--of-iterations`` iterations) and millfoil (the blade evaluation's solve,
 ``optimizer.pipeline.solve_flow``, with ``--mf-set`` changes), one core each, back to back, and prints per
@@ -87,15 +88,17 @@ CMAX_FUNCTION = """    cmax
 
 
 # ---------------------------------------------------------------------------------------------- the blades
-def blade_configs(paper: list[str], n_random: int, level: str, solver: dict,
+def blade_configs(paper: list[str], indices: list[int], level: str, solver: dict,
                   seed: int = 2013) -> list[tuple[str, object]]:
-    """``(name, Config)`` of the paper blades ``paper`` and the first ``n_random`` random Table 6 blades at
-    mesh ``level``, with the ``solver:`` keys ``solver`` changed."""
+    """``(name, Config)`` of the paper blades ``paper`` and the random Table 6 blades ``indices`` (of the
+    seeded draw) at mesh ``level``, with the ``solver:`` keys ``solver`` changed."""
     from optimizer.config import Config, load_config
 
     sets = [f"solver.{k}={json.dumps(v) if not isinstance(v, str) else v}" for k, v in solver.items()]
     out = [(name, load_config(ROOT / PAPER_BLADES[name], [f"mesh.level={level}", *sets])) for name in paper]
-    for i, (mode, cont, params) in enumerate(draw_blades(n_random, seed) if n_random else []):
+    drawn = draw_blades(max(indices) + 1, seed) if indices else []
+    for i in indices:
+        mode, cont, params = drawn[i]
         raw = {"blade": {"mode": mode, "continuity": cont, "parameters": params}, "mesh": {"level": level},
                "solver": solver}
         out.append((f"random{i}-{mode}-{cont}", Config.from_mapping(raw)))
@@ -290,7 +293,8 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--paper", nargs="*", default=["table4", "table5"], choices=["table4", "table5"])
     parser.add_argument("--random", type=int, default=10, help="first N random Table 6 blades (seed 2013)")
-    parser.add_argument("--only", nargs="*", default=None, help="run only these blade names")
+    parser.add_argument("--indices", nargs="+", type=int, default=None,
+                        help="these random blades (indices of the draw) instead of the first --random")
     parser.add_argument("--level", default="medium", choices=["coarse", "medium", "fine"])
     parser.add_argument("--of-iterations", type=int, default=1500, help="simpleFoam iterations")
     parser.add_argument("--mf-set", action="append", default=[], metavar="KEY=VALUE",
@@ -309,9 +313,8 @@ def main() -> None:
           f"OpenFOAM: {why or 'ok'}; millfoil {variant_name(args.mf_set)}", flush=True)
     print(f"{HEAD}\n|" + " --- |" * 12, flush=True)
     records = []
-    for name, config in blade_configs(args.paper, args.random, args.level, split_variant(args.mf_set)[0]):
-        if args.only is not None and name not in args.only:
-            continue
+    indices = args.indices if args.indices is not None else list(range(args.random))
+    for name, config in blade_configs(args.paper, indices, args.level, split_variant(args.mf_set)[0]):
         rec = compare(name, config, args.mf_set, args.of_iterations, args.work, why is None)
         rec |= {"time": time.strftime("%Y-%m-%d %H:%M"), "load": round(os.getloadavg()[0], 1),
                 "machine": platform.node()}
