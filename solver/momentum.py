@@ -31,7 +31,7 @@ from .boundary import FIXED, SYMMETRY, ZERO_GRADIENT, BoundaryData
 from .fvmesh import FVMesh
 from .gradient import interpolate_linear
 from .kernels import dot_last, symmetric_gauss_seidel_pair
-from .linalg import FVPattern, LinearSystem, SolverSettings
+from .linalg import FVPattern, LinearSystem, SolverSettings, reciprocal
 
 
 @dataclass
@@ -60,15 +60,10 @@ class MomentumSystem:
         pattern, upper, lower, diag_u, diag_v = self.shared
         indptr, indices, _ = pattern.off_diagonal
         x, y = np.array(self.u.x0, dtype=float), np.array(self.v.x0, dtype=float)
-        symmetric_gauss_seidel_pair(indptr, indices, pattern.off_diagonal_values(upper, lower), _reciprocal(diag_u),
-                                    _reciprocal(diag_v), x, y, np.ascontiguousarray(self.u.b, dtype=float),
+        symmetric_gauss_seidel_pair(indptr, indices, pattern.off_diagonal_values(upper, lower), reciprocal(diag_u),
+                                    reciprocal(diag_v), x, y, np.ascontiguousarray(self.u.b, dtype=float),
                                     np.ascontiguousarray(self.v.b, dtype=float), solver.maxiter)
         return np.column_stack([x, y])
-
-
-def _reciprocal(d: np.ndarray) -> np.ndarray:
-    """``1 / d``, 0 where ``d`` is 0 (a row the Gauss–Seidel sweep leaves unchanged)."""
-    return np.divide(1.0, d, out=np.zeros_like(d, dtype=float), where=d != 0)
 
 
 def momentum_system(mesh: FVMesh, pattern: FVPattern, bnd: BoundaryData, u: np.ndarray, u_b: np.ndarray,
@@ -111,7 +106,7 @@ def momentum_system(mesh: FVMesh, pattern: FVPattern, bnd: BoundaryData, u: np.n
     for c in range(2):
         d = (diag + sym_diag[:, c]) / alpha
         b = src[:, c] + (1.0 - alpha) * d * u[:, c]
-        sys.append((LinearSystem(pattern.matrix(d, upper, lower), b, u[:, c].copy()), d))
+        sys.append((LinearSystem(pattern.matrix(d, upper, lower), b, u[:, c].copy(), pattern), d))
     a_p = 0.5 * (sys[0][1] + sys[1][1])
     return MomentumSystem(sys[0][0], sys[1][0], a_p, h1, alpha, (pattern, upper, lower, sys[0][1], sys[1][1]))
 

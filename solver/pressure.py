@@ -172,7 +172,7 @@ def pressure_correction_system(mesh: FVMesh, pattern: FVPattern, bnd: BoundaryDa
         rhs = rhs - rhs.mean()
         diag[0] *= 2.0
     A = pattern.matrix(diag, -ci, -ci)
-    return PressureCorrection(LinearSystem(A, rhs, np.zeros(nc)), np.concatenate([ci, cb]), pinned)
+    return PressureCorrection(LinearSystem(A, rhs, np.zeros(nc), pattern), np.concatenate([ci, cb]), pinned)
 
 
 def correct_flux(mesh: FVMesh, flux: np.ndarray, coef: np.ndarray, p_corr: np.ndarray) -> np.ndarray:

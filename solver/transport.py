@@ -72,4 +72,4 @@ def scalar_system(mesh: FVMesh, pattern: FVPattern, phi: np.ndarray, phi_b: np.n
         lower = np.where(is_fixed[n], 0.0, lower)
         d[fixed_cells] = 1.0
         b[fixed_cells] = fixed_values
-    return LinearSystem(pattern.matrix(d, upper, lower), b, phi.copy())
+    return LinearSystem(pattern.matrix(d, upper, lower), b, phi.copy(), pattern)

@@ -140,6 +140,27 @@ def test_gauss_seidel_pair_equals_two_separate_solves(mesh):
     np.testing.assert_array_equal((off + sp.diags(diags[0])).toarray(), systems[0].A.toarray())
 
 
+def test_split_by_pattern_equals_split_diagonal(mesh):
+    """:meth:`LinearSystem.split` by the pattern's slots (a system built on the pattern) equals
+    :func:`kernels.split_diagonal` of the matrix bitwise, zero diagonal entries included; the pattern's
+    unsigned index arrays are the matrix's."""
+    from solver.kernels import split_diagonal
+    from solver.linalg import FVPattern, LinearSystem, unsigned_csr
+
+    rng = np.random.default_rng(7)
+    pattern = FVPattern.from_mesh(mesh)
+    ni, nc = mesh.n_internal, mesh.n_cells
+    diag = 4.0 + rng.uniform(0, 1, nc)
+    diag[[0, 5]] = 0.0
+    system = LinearSystem(pattern.matrix(diag, -rng.uniform(0.1, 1.0, ni), -rng.uniform(0.1, 1.0, ni)),
+                          rng.standard_normal(nc), rng.standard_normal(nc), pattern)
+    assert pattern.built(system.A)
+    for got, ref in zip(system.split(), split_diagonal(*unsigned_csr(system.A)), strict=True):
+        np.testing.assert_array_equal(got, ref)
+    for got, ref in zip(system.csr_arrays(), unsigned_csr(system.A), strict=True):
+        np.testing.assert_array_equal(got, ref)
+
+
 def test_residual_norms_equal_numpy_form(mesh):
     """:meth:`LinearSystem.residual_norms` (compiled) against its numpy form, to round-off (the 1-norms are
     summed in another order); and the floor of a uniform field."""
