@@ -12,7 +12,7 @@ from collections.abc import Callable
 import numpy as np
 
 from .fvmesh import FVMesh
-from .kernels import CompiledCSR
+from .kernels import CompiledCSR, paired_row_gradient
 
 
 def extended(phi: np.ndarray, phi_b: np.ndarray) -> np.ndarray:
@@ -24,18 +24,16 @@ def ls_gradient(mesh: FVMesh, phi: np.ndarray, phi_b: np.ndarray) -> np.ndarray:
     """Least-squares cell gradient ``(nc, ..., 2)`` of ``phi (nc, ...)`` (units of phi per metre).
 
     ``phi_b``: values at the boundary-face centres ``(nb, ...)``. Exact for a linear field. A vector
-    field ``(nc, 2)`` gives ``grad[c, component, direction]``. Two sparse products with the operators of
-    :func:`ls_operators` (the weighted sum ``sum_k ls_weights[c, k] (phi_k - phi_c)`` of
-    :attr:`FVMesh.ls_weights`, equal to it up to round-off).
+    field ``(nc, 2)`` gives ``grad[c, component, direction]``. The sum of two sparse products with the
+    operators of :func:`ls_operators` (the weighted sum ``sum_k ls_weights[c, k] (phi_k - phi_c)`` of
+    :attr:`FVMesh.ls_weights`, equal to it up to round-off), in one compiled pass over the cells on their
+    paired-row form (:func:`solver.kernels.paired_row_gradient`, bitwise the two products).
     """
-    cell_op, boundary_op = ls_operators(mesh)
-    nc = mesh.n_cells
-    flat = phi.reshape(nc, -1)
-    g = cell_op @ flat + boundary_op @ phi_b.reshape(mesh.n_boundary, -1)    # (2 nc, m), rows (c, direction)
-    g = g.reshape(nc, 2, -1)
-    if phi.ndim == 1:
-        return g[:, :, 0]
-    return np.ascontiguousarray(np.swapaxes(g, 1, 2)).reshape(phi.shape + (2,))
+    nc, nb = mesh.n_cells, mesh.n_boundary
+    cells, faces = paired_ls_operators(mesh)
+    g = paired_row_gradient(*cells, *faces, np.ascontiguousarray(phi, dtype=float).reshape(nc, -1),
+                            np.ascontiguousarray(phi_b, dtype=float).reshape(nb, -1))
+    return g.reshape(phi.shape + (2,))
 
 
 def ls_operators(mesh: FVMesh):
@@ -67,6 +65,33 @@ def ls_operators(mesh: FVMesh):
     out = (CompiledCSR(full[:, :nc]), CompiledCSR(full[:, nc:]))
     mesh.info["ls_operators"] = out
     return out
+
+
+def paired_ls_operators(mesh: FVMesh):
+    """The two operators of :func:`ls_operators` with the rows of both directions of a cell merged
+    (:func:`paired_rows`): ``((indptr, indices, values) of the cell part, (...) of the boundary part)``,
+    cached in ``mesh.info``. Why: a cell's two rows hold the same columns, so one pass reads each value once
+    for both directions (the gradient of a vector field in 0.2 instead of 0.4 ms at 16 641 cells)."""
+    cached = mesh.info.get("paired_ls_operators")
+    if cached is None:
+        cached = mesh.info["paired_ls_operators"] = tuple(paired_rows(op.matrix) for op in ls_operators(mesh))
+    return cached
+
+
+def paired_rows(op) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A CSR matrix ``(2 n, m)`` (sorted columns) as ``n`` paired rows: ``indptr (n + 1,)`` and ``indices``
+    (unsigned) of the union of the columns of rows ``2 i`` and ``2 i + 1`` in ascending order, and ``values
+    (nnz, 2)``: the two rows' entries, 0 on a column only the other row has."""
+    op = op.tocsr()
+    op.sort_indices()
+    n, m = op.shape[0] // 2, op.shape[1]
+    row = np.repeat(np.arange(op.shape[0]), np.diff(op.indptr))
+    key = (row // 2) * m + op.indices                                   # (pair, column), ascending per row
+    union = np.unique(key)
+    values = np.zeros((union.size, 2))
+    values[np.searchsorted(union, key), row % 2] = op.data
+    indptr = np.searchsorted(union, np.arange(n + 1) * m).astype(np.uint64)
+    return indptr, (union % m).astype(np.uint64), values
 
 
 def neighbour_bounds(mesh: FVMesh, phi: np.ndarray, phi_b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

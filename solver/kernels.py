@@ -224,6 +224,35 @@ def csr_matmat2(indptr, indices, data, x, n_rows):
     return y
 
 
+@njit(cache=True)
+def paired_row_gradient(c_ptr, c_idx, c_val, b_ptr, b_idx, b_val, phi, phi_b):
+    """The least-squares gradient ``(nc, m, 2)`` of ``phi (nc, m)`` with boundary-face values ``phi_b (nb, m)``
+    from its two operators in paired-row form (:func:`solver.gradient.ls_operators`): per cell ``c`` one
+    list of columns (``c_ptr``, ``c_idx``) with the weights of both directions ``c_val (nnz, 2)``, the same
+    for the boundary faces (``b_*``). ``out[c, k, i] = sum_cells + sum_faces``, each a running sum in column
+    order: bitwise the sum of the two CSR products ``(2 nc, ·)`` it replaces (a direction's zero weight on a
+    column only the other direction has adds 0), reading each column once for both directions."""
+    nc, m = phi.shape
+    out = np.empty((nc, m, 2))
+    for c in range(nc):
+        for k in range(m):
+            sx = 0.0
+            sy = 0.0
+            for jj in range(c_ptr[c], c_ptr[c + 1]):
+                v = phi[c_idx[jj], k]
+                sx += c_val[jj, 0] * v
+                sy += c_val[jj, 1] * v
+            tx = 0.0
+            ty = 0.0
+            for jj in range(b_ptr[c], b_ptr[c + 1]):
+                v = phi_b[b_idx[jj], k]
+                tx += b_val[jj, 0] * v
+                ty += b_val[jj, 1] * v
+            out[c, k, 0] = sx + tx
+            out[c, k, 1] = sy + ty
+    return out
+
+
 class CompiledCSR:
     """A fixed CSR matrix (an interpolation or gradient operator built once per mesh) whose products go
     through :func:`csr_matmat` when ``X`` has several columns (the vector and gradient operands of the
