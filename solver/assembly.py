@@ -22,7 +22,7 @@ import numpy as np
 
 from . import kernels
 from .fvmesh import FVMesh
-from .gradient import interpolate_linear, limited_gradient
+from .gradient import interpolate_linear, limited_gradient, linear_weights
 from .kernels import dot_last
 
 
@@ -77,12 +77,25 @@ def _face_offsets(mesh: FVMesh) -> tuple[np.ndarray, np.ndarray]:
 
 def non_orthogonal_diffusion(mesh: FVMesh, gamma, grad: np.ndarray) -> np.ndarray:
     """``Gamma_f grad(phi)_f·T_f`` per internal face ``(ni, ...)``, the face gradient interpolated linearly
-    from the cell gradients ``grad``; ``gamma`` a float or ``(ni,)``."""
+    from the cell gradients ``grad (nc, ..., 2)`` (:func:`solver.gradient.interpolate_linear`); ``gamma`` a
+    float or ``(ni,)``. A scalar's in one compiled loop over the faces
+    (:func:`solver.kernels.face_gradient_flux`)."""
     ni = mesh.n_internal
+    if grad.ndim == 2 and np.ndim(gamma) == 1:
+        return kernels.face_gradient_flux(*linear_weights(mesh), np.ascontiguousarray(grad, dtype=float),
+                                          _t_vec(mesh), np.ascontiguousarray(gamma, dtype=float))
     g_t = dot_last(interpolate_linear(mesh, grad), mesh.t_vec[:ni])
     if np.ndim(gamma):
         gamma = np.reshape(gamma, (-1,) + (1,) * (g_t.ndim - 1))
     return gamma * g_t
+
+
+def _t_vec(mesh: FVMesh) -> np.ndarray:
+    """``T_f`` ``(ni, 2)`` of the internal faces, contiguous (cached in ``mesh.info``)."""
+    cached = mesh.info.get("t_vec_internal")
+    if cached is None:
+        cached = mesh.info["t_vec_internal"] = np.ascontiguousarray(mesh.t_vec[:mesh.n_internal], dtype=float)
+    return cached
 
 
 def scatter_face_sources(mesh: FVMesh, src: np.ndarray, face: np.ndarray) -> np.ndarray:

@@ -12,7 +12,7 @@ from collections.abc import Callable
 import numpy as np
 
 from .fvmesh import FVMesh
-from .kernels import CompiledCSR, paired_row_gradient
+from .kernels import CompiledCSR, interpolate_faces, interpolate_faces_1, interpolate_faces_2, paired_row_gradient
 
 
 def extended(phi: np.ndarray, phi_b: np.ndarray) -> np.ndarray:
@@ -165,9 +165,29 @@ def interpolate_linear(mesh: FVMesh, phi: np.ndarray) -> np.ndarray:
     """Linear interpolation of cell values ``(nc, ...)`` (a field, a gradient, a coefficient) to the internal
     faces ``(ni, ...)``: ``w phi_P + (1 - w) phi_N`` with the distance weights :attr:`FVMesh.weight`. The one
     plain face interpolation of the solver; :func:`interpolate_corrected` adds the skewness correction and
-    :func:`face_average` the quadratic face mean. One sparse product (:func:`face_operators`)."""
-    flat = phi.reshape(mesh.n_cells, -1)
-    return (face_operators(mesh)["linear"] @ flat).reshape((mesh.n_internal,) + phi.shape[1:])
+    :func:`face_average` the quadratic face mean. One compiled loop over the faces
+    (:func:`solver.kernels.interpolate_faces`, bitwise the product with the ``"linear"`` operator of
+    :func:`face_operators`)."""
+    flat = np.ascontiguousarray(phi, dtype=float).reshape(mesh.n_cells, -1)
+    m = flat.shape[1]
+    if m == 1:
+        out = interpolate_faces_1(*linear_weights(mesh), flat[:, 0])
+    else:
+        out = (interpolate_faces_2 if m == 2 else interpolate_faces)(*linear_weights(mesh), flat)
+    return out.reshape((mesh.n_internal,) + phi.shape[1:])
+
+
+def linear_weights(mesh: FVMesh) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """``(w, 1 - w, owner, neighbour)`` ``(ni,)`` of the internal faces (cached in ``mesh.info``; unsigned
+    indices, see :func:`solver.linalg.unsigned_csr`): the arguments of the compiled face interpolations
+    (:func:`solver.kernels.interpolate_faces`)."""
+    cached = mesh.info.get("linear_weights")
+    if cached is None:
+        ni = mesh.n_internal
+        w = np.ascontiguousarray(mesh.weight[:ni], dtype=float)
+        cached = mesh.info["linear_weights"] = (w, 1.0 - w, mesh.owner[:ni].astype(np.uint64),
+                                                mesh.neighbour[:ni].astype(np.uint64))
+    return cached
 
 
 def interpolate_corrected(mesh: FVMesh, phi: np.ndarray, grad: np.ndarray) -> np.ndarray:

@@ -253,6 +253,80 @@ def paired_row_gradient(c_ptr, c_idx, c_val, b_ptr, b_idx, b_val, phi, phi_b):
     return out
 
 
+@njit(cache=True)
+def interpolate_faces(w, w1, owner, neighbour, phi):
+    """``w phi[owner] + w1 phi[neighbour]`` ``(ni, m)`` for ``phi (nc, m)`` (:func:`solver.gradient.
+    interpolate_linear`, ``w1 = 1 - w``): bitwise the product with the two-entry rows of its CSR operator
+    (a running sum from 0 of two products: their sum in either order). :func:`interpolate_faces_1` and
+    :func:`interpolate_faces_2`: the same for one and two columns, unrolled (twice as fast)."""
+    m = phi.shape[1]
+    out = np.empty((w.shape[0], m))
+    for f in range(w.shape[0]):
+        o = owner[f]
+        n = neighbour[f]
+        for k in range(m):
+            out[f, k] = w[f] * phi[o, k] + w1[f] * phi[n, k]
+    return out
+
+
+@njit(cache=True)
+def interpolate_faces_1(w, w1, owner, neighbour, phi):
+    """:func:`interpolate_faces` of a cell scalar ``phi (nc,)`` -> ``(ni,)``."""
+    out = np.empty(w.shape[0])
+    for f in range(w.shape[0]):
+        out[f] = w[f] * phi[owner[f]] + w1[f] * phi[neighbour[f]]
+    return out
+
+
+@njit(cache=True)
+def interpolate_faces_2(w, w1, owner, neighbour, phi):
+    """:func:`interpolate_faces` of ``phi (nc, 2)`` -> ``(ni, 2)``."""
+    out = np.empty((w.shape[0], 2))
+    for f in range(w.shape[0]):
+        o = owner[f]
+        n = neighbour[f]
+        out[f, 0] = w[f] * phi[o, 0] + w1[f] * phi[n, 0]
+        out[f, 1] = w[f] * phi[o, 1] + w1[f] * phi[n, 1]
+    return out
+
+
+@njit(cache=True)
+def face_gradient_flux(w, w1, owner, neighbour, grad, t, gamma):
+    """``gamma_f (grad_f · t_f)`` ``(ni,)``: the gradient ``grad (nc, 2)`` of a cell scalar interpolated
+    linearly to the internal faces (:func:`interpolate_faces`) and dotted with ``t (ni, 2)``, times ``gamma
+    (ni,)`` (:func:`solver.assembly.non_orthogonal_diffusion`; bitwise its interpolation, ``dot_last`` and
+    product)."""
+    out = np.empty(w.shape[0])
+    for f in range(w.shape[0]):
+        o = owner[f]
+        n = neighbour[f]
+        gx = w[f] * grad[o, 0] + w1[f] * grad[n, 0]
+        gy = w[f] * grad[o, 1] + w1[f] * grad[n, 1]
+        out[f] = gamma[f] * (gx * t[f, 0] + gy * t[f, 1])
+    return out
+
+
+@njit(cache=True)
+def viscous_face_stress(w, w1, owner, neighbour, grad, t, sf, mu):
+    """``mu_f ((grad u)_f · T_f + (grad u)_f^T · S_f)`` ``(ni, 2)`` (:func:`solver.momentum.momentum_system`,
+    variable viscosity): the velocity gradient ``grad (nc, 2, 2)`` ``[cell, component, direction]``
+    interpolated linearly to the internal faces, its non-orthogonal part along ``t (ni, 2)`` plus its
+    transpose along ``sf (ni, 2)``, times ``mu (ni,)``; bitwise the numpy form (interpolation, two
+    ``dot_last`` and their sum)."""
+    out = np.empty((w.shape[0], 2))
+    for f in range(w.shape[0]):
+        o = owner[f]
+        n = neighbour[f]
+        g00 = w[f] * grad[o, 0, 0] + w1[f] * grad[n, 0, 0]
+        g01 = w[f] * grad[o, 0, 1] + w1[f] * grad[n, 0, 1]
+        g10 = w[f] * grad[o, 1, 0] + w1[f] * grad[n, 1, 0]
+        g11 = w[f] * grad[o, 1, 1] + w1[f] * grad[n, 1, 1]
+        t0, t1, s0, s1 = t[f, 0], t[f, 1], sf[f, 0], sf[f, 1]
+        out[f, 0] = mu[f] * ((g00 * t0 + g01 * t1) + (g00 * s0 + g10 * s1))
+        out[f, 1] = mu[f] * ((g10 * t0 + g11 * t1) + (g01 * s0 + g11 * s1))
+    return out
+
+
 class CompiledCSR:
     """A fixed CSR matrix (an interpolation or gradient operator built once per mesh) whose products go
     through :func:`csr_matmat` when ``X`` has several columns (the vector and gradient operands of the

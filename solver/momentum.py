@@ -29,8 +29,8 @@ import numpy as np
 from .assembly import deferred_correction, non_orthogonal_diffusion, scatter_face_sources, sum_per_cell, upwind_stencil
 from .boundary import FIXED, SYMMETRY, ZERO_GRADIENT, BoundaryData
 from .fvmesh import FVMesh
-from .gradient import interpolate_linear
-from .kernels import dot_last, symmetric_gauss_seidel_pair
+from .gradient import linear_weights
+from .kernels import symmetric_gauss_seidel_pair, viscous_face_stress
 from .linalg import FVPattern, LinearSystem, SolverSettings, reciprocal
 
 
@@ -90,9 +90,9 @@ def momentum_system(mesh: FVMesh, pattern: FVPattern, bnd: BoundaryData, u: np.n
     if body_force is not None:
         src = src + body_force * mesh.volume[:, None]
     face = deferred_correction(mesh, flux, grad_u_ho)            # F (u_HO - u_UD)
-    if variable:
-        g_f = interpolate_linear(mesh, grad_u)
-        face -= mu_i[:, None] * (dot_last(g_f, mesh.t_vec[:ni]) + dot_last(np.swapaxes(g_f, 1, 2), mesh.sf[:ni]))
+    if variable:                                                 # mu_f ((grad u)_f·T + (grad u)_f^T·S)
+        face -= viscous_face_stress(*linear_weights(mesh), np.ascontiguousarray(grad_u, dtype=float),
+                                    mesh.t_vec[:ni], mesh.sf[:ni], np.ascontiguousarray(mu_i, dtype=float))
     else:
         face -= non_orthogonal_diffusion(mesh, mu, grad_u)
     src = scatter_face_sources(mesh, src, face)

@@ -287,6 +287,34 @@ def test_ls_gradient_equals_its_two_sparse_products(mesh, field, vector):
     np.testing.assert_array_equal(ls_gradient(mesh, phi, phi_b), ref)
 
 
+@pytest.mark.parametrize("shape", [(), (2,), (2, 2), (3,)])
+def test_interpolate_linear_equals_its_operator(mesh, shape):
+    """:func:`interpolate_linear` (compiled face loops) equals bitwise the product with its CSR operator."""
+    from solver.gradient import face_operators, interpolate_linear
+
+    phi = np.random.default_rng(11).standard_normal((mesh.n_cells,) + shape)
+    ref = face_operators(mesh)["linear"].matrix @ phi.reshape(mesh.n_cells, -1)
+    np.testing.assert_array_equal(interpolate_linear(mesh, phi), ref.reshape((mesh.n_internal,) + shape))
+
+
+def test_face_gradient_terms_equal_numpy_forms(mesh):
+    """The non-orthogonal diffusion of a scalar and the variable-viscosity stress of the momentum equations
+    (compiled face loops) equal bitwise their numpy forms (interpolation, ``einsum``, products)."""
+    from solver.assembly import non_orthogonal_diffusion
+    from solver.gradient import interpolate_linear, linear_weights
+    from solver.kernels import viscous_face_stress
+
+    rng = np.random.default_rng(12)
+    ni, nc = mesh.n_internal, mesh.n_cells
+    gamma, grad, grad_u = rng.uniform(0.1, 1.0, ni), rng.standard_normal((nc, 2)), rng.standard_normal((nc, 2, 2))
+    t, sf = mesh.t_vec[:ni], mesh.sf[:ni]
+    ref = gamma * np.einsum("fd,fd->f", interpolate_linear(mesh, grad), t)
+    np.testing.assert_array_equal(non_orthogonal_diffusion(mesh, gamma, grad), ref)
+    g_f = interpolate_linear(mesh, grad_u)
+    ref = gamma[:, None] * (np.einsum("fcd,fd->fc", g_f, t) + np.einsum("fdc,fd->fc", g_f, sf))
+    np.testing.assert_array_equal(viscous_face_stress(*linear_weights(mesh), grad_u, t, sf, gamma), ref)
+
+
 @pytest.mark.parametrize("columns", [None, 1, 2, 6])
 def test_compiled_csr_product_equals_scipy(mesh, columns):
     from solver.gradient import face_operators
