@@ -12,7 +12,14 @@ from collections.abc import Callable
 import numpy as np
 
 from .fvmesh import FVMesh
-from .kernels import CompiledCSR, interpolate_faces, interpolate_faces_1, interpolate_faces_2, paired_row_gradient
+from .kernels import (
+    CompiledCSR,
+    interpolate_faces,
+    interpolate_faces_1,
+    interpolate_faces_2,
+    paired_row_gradient,
+    unsigned,
+)
 
 
 def extended(phi: np.ndarray, phi_b: np.ndarray) -> np.ndarray:
@@ -90,8 +97,7 @@ def paired_rows(op) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     union = np.unique(key)
     values = np.zeros((union.size, 2))
     values[np.searchsorted(union, key), row % 2] = op.data
-    indptr = np.searchsorted(union, np.arange(n + 1) * m).astype(np.uint64)
-    return indptr, (union % m).astype(np.uint64), values
+    return unsigned(np.searchsorted(union, np.arange(n + 1) * m)), unsigned(union % m), values
 
 
 def neighbour_bounds(mesh: FVMesh, phi: np.ndarray, phi_b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -179,14 +185,13 @@ def interpolate_linear(mesh: FVMesh, phi: np.ndarray) -> np.ndarray:
 
 def linear_weights(mesh: FVMesh) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """``(w, 1 - w, owner, neighbour)`` ``(ni,)`` of the internal faces (cached in ``mesh.info``; unsigned
-    indices, see :func:`solver.linalg.unsigned_csr`): the arguments of the compiled face interpolations
+    indices, :func:`solver.kernels.unsigned`): the arguments of the compiled face interpolations
     (:func:`solver.kernels.interpolate_faces`)."""
     cached = mesh.info.get("linear_weights")
     if cached is None:
         ni = mesh.n_internal
         w = np.ascontiguousarray(mesh.weight[:ni], dtype=float)
-        cached = mesh.info["linear_weights"] = (w, 1.0 - w, mesh.owner[:ni].astype(np.uint64),
-                                                mesh.neighbour[:ni].astype(np.uint64))
+        cached = mesh.info["linear_weights"] = (w, 1.0 - w, unsigned(mesh.owner[:ni]), unsigned(mesh.neighbour[:ni]))
     return cached
 
 

@@ -56,19 +56,24 @@ class FVPattern:
 
     @functools.cached_property
     def unsigned(self) -> tuple[np.ndarray, np.ndarray]:
-        """``(indptr, indices)`` as unsigned (``uint64``) copies for the compiled kernels (computed once):
-        numba checks every signed index for wrap-around, and scipy's ``int32`` indices made the row loops
-        up to 1.5x slower (the u, v Gauss–Seidel pair: 3.1 -> 2.1 ms per solve at 16 641 cells)."""
-        return self.indptr.astype(np.uint64), self.indices.astype(np.uint64)
+        """``(indptr, indices)`` as unsigned copies for the compiled kernels (:func:`solver.kernels.unsigned`,
+        computed once): numba checks every signed index for wrap-around, and scipy's ``int32`` indices made
+        the row loops up to 1.5x slower (the u, v Gauss–Seidel pair: 3.1 -> 2.1 ms per solve at 16 641
+        cells)."""
+        from .kernels import unsigned
+
+        return unsigned(self.indptr), unsigned(self.indices)
 
     @functools.cached_property
     def off_diagonal(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """The off-diagonal part of the pattern alone: CSR ``(indptr, indices)`` (unsigned ``uint64``, each
+        """The off-diagonal part of the pattern alone: CSR ``(indptr, indices)`` (unsigned, each
         row's columns in the order of the full pattern, the diagonal left out) and ``perm`` into
         ``concat(upper, lower)``, for :meth:`off_diagonal_values` (computed once)."""
+        from .kernels import unsigned
+
         keep = self.perm >= self.n
-        indptr = np.concatenate([[0], np.cumsum(np.diff(self.indptr) - 1)]).astype(np.uint64)
-        return indptr, self.indices[keep].astype(np.uint64), self.perm[keep] - self.n
+        indptr = np.concatenate([[0], np.cumsum(np.diff(self.indptr) - 1)])
+        return unsigned(indptr), unsigned(self.indices[keep]), self.perm[keep] - self.n
 
     @functools.cached_property
     def slots(self) -> tuple[np.ndarray, np.ndarray]:
@@ -308,10 +313,12 @@ def reciprocal(d: np.ndarray) -> np.ndarray:
 
 
 def unsigned_csr(A: sp.csr_matrix) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """``(indptr, indices, data)`` of a CSR matrix with unsigned (``uint64``) index arrays, for the compiled
-    kernels: numba checks every signed index for wrap-around (negative indices), which made its sparse
-    products 2-3x slower than scipy's."""
-    return A.indptr.astype(np.uint64), A.indices.astype(np.uint64), A.data
+    """``(indptr, indices, data)`` of a CSR matrix with unsigned 32-bit index arrays for the compiled kernels
+    (:func:`solver.kernels.unsigned`: numba checks every signed index for wrap-around, which made its sparse
+    products 2-3x slower than scipy's)."""
+    from .kernels import unsigned
+
+    return unsigned(A.indptr), unsigned(A.indices), A.data
 
 
 def _with_fast_smoothers(ml):
