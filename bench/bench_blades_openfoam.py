@@ -282,7 +282,10 @@ def report(records: list[dict]) -> None:
         print(f"\n### {level}, millfoil {variant}\n\n{HEAD}\n|" + " --- |" * 12)
         for r in recs:
             print(row(r))
-        print(f"\n{summary(recs)}")
+        for label, group in (("random blades", [r for r in recs if r["blade"].startswith("random")]),
+                             ("paper blades", [r for r in recs if not r["blade"].startswith("random")])):
+            if group:
+                print(f"\n{label}: {summary(group)}")
 
 
 def read_records(paths: list[Path]) -> list[dict]:
