@@ -19,8 +19,15 @@ import numpy as np
 
 from .boundary import FIXED, ZERO_GRADIENT, BoundaryData
 from .fvmesh import FVMesh
-from .gradient import boundary_face_curvature, face_average, face_operators, interpolate_corrected, interpolate_linear
-from .kernels import cap_quadratic_correction, dot_last
+from .gradient import (
+    boundary_face_curvature,
+    face_average,
+    face_operators,
+    interpolate_corrected,
+    interpolate_linear,
+    linear_weights,
+)
+from .kernels import cap_quadratic_correction, dot_last, rhie_chow_faces
 from .linalg import FVPattern, LinearSystem
 
 #: Cap of the quadratic correction of the face velocity, as a fraction of the linear variation
@@ -116,12 +123,10 @@ def rhie_chow_flux(mesh: FVMesh, bnd: BoundaryData, u: np.ndarray, u_b: np.ndarr
     :func:`outflow_face_velocity` with the pressure-smoothing term against the prescribed face pressure.
     """
     ni = mesh.n_internal
-    o, n = mesh.owner[:ni], mesh.neighbour[:ni]
-    e = mesh.sf - mesh.t_vec
-    dbar = interpolate_linear(mesh, r_au)
-    gbar = interpolate_linear(mesh, grad_p)
-    fi = rho * (dot_last(face_velocity(mesh, u, u_b, grad_u), mesh.sf[:ni])
-                - dbar * (mesh.diff_coeff[:ni] * (p[n] - p[o]) - dot_last(gbar, e[:ni])))
+    e = _non_orthogonal_vectors(mesh)
+    fi = rhie_chow_faces(*linear_weights(mesh), face_velocity(mesh, u, u_b, grad_u), mesh.sf[:ni], e[:ni],
+                         mesh.diff_coeff[:ni], np.ascontiguousarray(p, dtype=float),
+                         np.ascontiguousarray(r_au, dtype=float), np.ascontiguousarray(grad_p, dtype=float), rho)
     ob = mesh.owner[ni:]
     kind = bnd.velocity_kind
     fb_out = rho * (np.einsum("ij,ij->i", outflow_face_velocity(mesh, bnd, u, u_b, grad_u), mesh.sf[ni:])
@@ -133,6 +138,15 @@ def rhie_chow_flux(mesh: FVMesh, bnd: BoundaryData, u: np.ndarray, u_b: np.ndarr
     if relax_term is not None:
         flux += relax_term
     return flux
+
+
+def _non_orthogonal_vectors(mesh: FVMesh) -> np.ndarray:
+    """``e = S - T`` ``(nf, 2)`` of every face, m (the orthogonal part of the face vector; cached in
+    ``mesh.info``)."""
+    e = mesh.info.get("sf_minus_t")
+    if e is None:
+        e = mesh.info["sf_minus_t"] = mesh.sf - mesh.t_vec
+    return e
 
 
 def mass_imbalance(mesh: FVMesh, flux: np.ndarray) -> np.ndarray:

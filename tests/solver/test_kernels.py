@@ -112,6 +112,23 @@ def test_face_velocity_equals_numpy_form(mesh):
     np.testing.assert_array_equal(out, ref)
 
 
+def test_rhie_chow_faces_equal_numpy_form(mesh):
+    """The internal-face Rhie–Chow fluxes (:func:`kernels.rhie_chow_faces`) equal bitwise their numpy form."""
+    from solver.gradient import interpolate_linear, linear_weights
+    from solver.kernels import rhie_chow_faces
+
+    rng = np.random.default_rng(13)
+    ni, nc = mesh.n_internal, mesh.n_cells
+    o, n = mesh.owner[:ni], mesh.neighbour[:ni]
+    u_f, p, r_au, grad_p = rng.standard_normal((ni, 2)), rng.standard_normal(nc), rng.uniform(0.1, 1, nc), \
+        rng.standard_normal((nc, 2))
+    e = (mesh.sf - mesh.t_vec)[:ni]
+    ref = 1.5 * (np.einsum("fd,fd->f", u_f, mesh.sf[:ni]) - interpolate_linear(mesh, r_au) * (
+        mesh.diff_coeff[:ni] * (p[n] - p[o]) - np.einsum("fd,fd->f", interpolate_linear(mesh, grad_p), e)))
+    out = rhie_chow_faces(*linear_weights(mesh), u_f, mesh.sf[:ni], e, mesh.diff_coeff[:ni], p, r_au, grad_p, 1.5)
+    np.testing.assert_array_equal(out, ref)
+
+
 def test_gauss_seidel_pair_equals_two_separate_solves(mesh):
     """The u and v momentum systems swept together (:meth:`MomentumSystem.solve`) give the two separate
     pyamg-kernel solves (:func:`symmetric_gauss_seidel`) to round-off."""
