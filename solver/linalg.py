@@ -50,6 +50,14 @@ class FVPattern:
         data = np.concatenate([diag, upper, lower])[self.perm]
         return sp.csr_matrix((data, self.indices, self.indptr), shape=(self.n, self.n), copy=False)
 
+    def with_diagonal(self, A: sp.csr_matrix, diag: np.ndarray) -> sp.csr_matrix:
+        """A matrix of this pattern with the off-diagonal values of ``A`` (built by :meth:`matrix`) and the
+        diagonal ``diag`` (nc,): a copy of its values with the diagonal slots replaced (the u and v momentum
+        matrices differ only there), the same matrix as :meth:`matrix` with ``A``'s upper and lower."""
+        data = A.data.copy()
+        data[self.slots[0]] = diag
+        return sp.csr_matrix((data, self.indices, self.indptr), shape=(self.n, self.n), copy=False)
+
     def built(self, A: sp.csr_matrix) -> bool:
         """Whether ``A`` was filled on this pattern by :meth:`matrix` (it shares the pattern's row pointer)."""
         return A.indptr is self.indptr

@@ -60,7 +60,8 @@ class MomentumSystem:
         pattern, upper, lower, diag_u, diag_v = self.shared
         indptr, indices, _ = pattern.off_diagonal
         x, y = np.array(self.u.x0, dtype=float), np.array(self.v.x0, dtype=float)
-        symmetric_gauss_seidel_pair(indptr, indices, pattern.off_diagonal_values(upper, lower), reciprocal(diag_u),
+        off = self.u.A.data[pattern.slots[1]] if pattern.built(self.u.A) else pattern.off_diagonal_values(upper, lower)
+        symmetric_gauss_seidel_pair(indptr, indices, off, reciprocal(diag_u),
                                     reciprocal(diag_v), x, y, np.ascontiguousarray(self.u.b, dtype=float),
                                     np.ascontiguousarray(self.v.b, dtype=float), solver.maxiter)
         return np.column_stack([x, y])
@@ -106,7 +107,8 @@ def momentum_system(mesh: FVMesh, pattern: FVPattern, bnd: BoundaryData, u: np.n
     for c in range(2):
         d = (diag + sym_diag[:, c]) / alpha
         b = src[:, c] + (1.0 - alpha) * d * u[:, c]
-        sys.append((LinearSystem(pattern.matrix(d, upper, lower), b, u[:, c].copy(), pattern), d))
+        A = pattern.matrix(d, upper, lower) if c == 0 else pattern.with_diagonal(sys[0][0].A, d)
+        sys.append((LinearSystem(A, b, u[:, c].copy(), pattern), d))
     a_p = 0.5 * (sys[0][1] + sys[1][1])
     return MomentumSystem(sys[0][0], sys[1][0], a_p, h1, alpha, (pattern, upper, lower, sys[0][1], sys[1][1]))
 
