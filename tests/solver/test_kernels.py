@@ -160,7 +160,7 @@ def test_gauss_seidel_pair_equals_two_separate_solves(mesh):
 def test_split_by_pattern_equals_split_diagonal(mesh):
     """:meth:`LinearSystem.split` by the pattern's slots (a system built on the pattern) equals
     :func:`kernels.split_diagonal` of the matrix bitwise, zero diagonal entries included; the pattern's
-    unsigned index arrays are the matrix's."""
+    unsigned index arrays are the matrix's; :meth:`FVPattern.with_diagonal` is :meth:`FVPattern.matrix`."""
     from solver.kernels import split_diagonal
     from solver.linalg import FVPattern, LinearSystem, unsigned_csr
 
@@ -169,9 +169,12 @@ def test_split_by_pattern_equals_split_diagonal(mesh):
     ni, nc = mesh.n_internal, mesh.n_cells
     diag = 4.0 + rng.uniform(0, 1, nc)
     diag[[0, 5]] = 0.0
-    system = LinearSystem(pattern.matrix(diag, -rng.uniform(0.1, 1.0, ni), -rng.uniform(0.1, 1.0, ni)),
-                          rng.standard_normal(nc), rng.standard_normal(nc), pattern)
+    upper, lower = -rng.uniform(0.1, 1.0, ni), -rng.uniform(0.1, 1.0, ni)
+    system = LinearSystem(pattern.matrix(diag, upper, lower), rng.standard_normal(nc), rng.standard_normal(nc),
+                          pattern)
     assert pattern.built(system.A)
+    other = rng.uniform(1, 2, nc)
+    np.testing.assert_array_equal(pattern.with_diagonal(system.A, other).data, pattern.matrix(other, upper, lower).data)
     for got, ref in zip(system.split(), split_diagonal(*unsigned_csr(system.A)), strict=True):
         np.testing.assert_array_equal(got, ref)
     for got, ref in zip(system.csr_arrays(), unsigned_csr(system.A), strict=True):
