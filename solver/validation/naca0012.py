@@ -12,9 +12,11 @@ the force on the airfoil (body axes) is projected on the drag (along U∞) and l
 of the current C_L (:func:`vortex_velocity`, updated every 100 iterations; TMR's runs have the point-vortex
 correction too), with the TMR freestream turbulence (k = 9e-9 a², omega = 1e-6 rho a²/mu at M = 0.15, read
 from the CFL3D file header: intensity 5.16e-4, nu_t/nu = 0.009); ``farfield_out`` pressure outlet p = 0.
-Start: potential flow (:func:`potential_start`); SIMPLE, alpha_u 0.7, alpha_p 0.3, the momentum gradient limited
-for the first 500 iterations only, Green-Gauss pressure gradient (:func:`naca_settings`); SST with the
-limited omega production and the two-point wall omega flux (:func:`naca_turbulence`).
+Start: potential flow (:func:`potential_start`); SIMPLE, alpha_u 0.7, alpha_p 0.3 (:func:`naca_settings`).
+``near_stall=True`` runs the case with the near-stall settings of issue 15 (:data:`NEAR_STALL_SETTINGS`,
+:data:`NEAR_STALL_SST`): within 1 % of OpenFOAM's lift up to C_L,max on the coarse mesh, but not the default,
+because at alpha = 10 deg on the fine mesh a mode grows once the limiter is off (C_D +11.8 % of CFL3D's;
+docs/naca0012.md).
 
 Compared with CFL3D SST on the 897x257 grid (``solver/validation/reference/tmr_naca0012_cfl3d_sst_*.csv``, copied
 from the TMR files): C_L, C_D at α = 0° and 10° (issue tolerances: α = 0: |C_L| <= 0.005, C_D within 8 %;
@@ -155,23 +157,29 @@ def potential_start(problem: Problem, u_inf, solver: SolverSettings = POTENTIAL_
 
 
 #: Iterations of a run (counted from the potential start, restarts included) in which the momentum
-#: linear-upwind gradient is limited (Venkatakrishnan, K = 5); after them it is unlimited, OpenFOAM's
-#: ``linearUpwind``. Unlimited from the start, the potential flow's slip velocity at the no-slip wall
-#: diverges within 4 iterations; limited throughout, the limiter clips the young boundary layer near the
-#: leading edge and costs lift near stall (docs/validation.md, "Findings (session 3)").
+#: linear-upwind gradient is limited (Venkatakrishnan, K = 5) in the near-stall settings; after them it is
+#: unlimited, OpenFOAM's ``linearUpwind``. Unlimited from the start, the potential flow's slip velocity at the
+#: no-slip wall diverges within 4 iterations; limited throughout, the limiter clips the young boundary layer
+#: near the leading edge and costs lift near stall (docs/validation.md, "Findings (session 3)").
 LIMITER_ITERATIONS = 500
 
-
-def naca_turbulence() -> SST:
-    """The case's k-omega SST: SST-2003, ``low_re`` wall treatment, with OpenFOAM's (and Menter 2003's)
-    limited omega production and the two-point omega flux next to the wall cells. With these two and the
-    unlimited momentum gradient and Green-Gauss pressure gradient of :func:`naca_settings`, the lift on
-    the coarse mesh is within 1 % of OpenFOAM's ``kOmegaSST`` on the same mesh from 10 deg to C_L,max
-    (docs/validation.md, "Findings (session 3)" and "Adopted (session 4)")."""
-    return SST(wall_treatment="low_re", omega_production="limited", omega_wall_flux="two_point")
+#: The near-stall solver settings (issue 15): the limited start-up, then the unlimited momentum gradient, and
+#: the Green-Gauss pressure gradient of the momentum source (OpenFOAM's ``Gauss linear``).
+NEAR_STALL_SETTINGS = {"limiter_iterations": LIMITER_ITERATIONS, "pressure_gradient": "green_gauss"}
+#: The near-stall SST options: OpenFOAM's (and Menter 2003's) limited omega production and the two-point omega
+#: flux next to the wall cells.
+NEAR_STALL_SST = {"omega_production": "limited", "omega_wall_flux": "two_point"}
 
 
-def naca_settings(**overrides) -> SimpleSettings:
+def naca_turbulence(near_stall: bool = False) -> SST:
+    """The case's k-omega SST: SST-2003 with the ``low_re`` wall treatment; ``near_stall``: with
+    :data:`NEAR_STALL_SST`. With those and :data:`NEAR_STALL_SETTINGS` the lift on the coarse mesh is within
+    1 % of OpenFOAM's ``kOmegaSST`` on the same mesh from 10 deg to C_L,max (docs/validation.md, "Findings
+    (session 3)" and "Adopted (session 4)")."""
+    return SST(wall_treatment="low_re", **(NEAR_STALL_SST if near_stall else {}))
+
+
+def naca_settings(near_stall: bool = False, **overrides) -> SimpleSettings:
     """Settings of one chunk of outer iterations (:func:`run_naca0012` checks convergence between chunks:
     the solver's own stop test is disabled with ``tol = -1``; ``max_iter`` is the chunk length).
 
@@ -181,15 +189,14 @@ def naca_settings(**overrides) -> SimpleSettings:
     cell's remaining mass imbalance (net inflow) exceeds ``(1/alpha_u - 1) a_P`` (measured: near the
     leading edge, and in the far-wake cells near the outflow plane); SIMPLE's ``V / a_P`` stays positive.
 
-    ``limiter_iterations`` counts the iterations of the whole run (:data:`LIMITER_ITERATIONS`):
-    :func:`run_naca0012` turns it into each chunk's own count. The pressure gradient of the momentum
-    source is Green-Gauss, as in OpenFOAM (``Gauss linear``).
+    ``near_stall``: with :data:`NEAR_STALL_SETTINGS`. Their ``limiter_iterations`` counts the iterations of
+    the whole run (:data:`LIMITER_ITERATIONS`): :func:`run_naca0012` turns it into each chunk's own count.
     """
     base = dict(algorithm="simple", alpha_u=0.7, alpha_p=0.3, stall_tol=None, max_iter=100, tol=-1.0,
-                limiter_iterations=LIMITER_ITERATIONS, pressure_gradient="green_gauss",
                 monitor_groups=(),
                 momentum_solver=SolverSettings("gauss_seidel", 0.1, 8),
                 pressure_solver=SolverSettings("amg", 1e-3, 200))
+    base.update(NEAR_STALL_SETTINGS if near_stall else {})
     base.update(overrides)
     return SimpleSettings(**base)
 
@@ -279,7 +286,8 @@ def run_naca0012(alpha_deg: float = 0.0, level: str = "coarse", *, reynolds: flo
                  turbulent: bool = True, turbulence=None, settings: SimpleSettings | None = None,
                  convergence: Convergence = Convergence(), mesh_spec=None, callback=None,
                  progress=None, state_file=None, max_seconds: float | None = None,
-                 vortex_correction: bool = True, startup: int = STARTUP_ITERATIONS) -> NacaResult:
+                 vortex_correction: bool = True, startup: int = STARTUP_ITERATIONS,
+                 near_stall: bool = False) -> NacaResult:
     """Solve the NACA 0012 at ``alpha_deg`` on the C-mesh of ``level``
     (:data:`solver.validation.meshes.naca_mesh.LEVELS`) or ``mesh_spec``
     (a :class:`solver.validation.meshes.naca_mesh.CMeshSpec`).
@@ -295,13 +303,15 @@ def run_naca0012(alpha_deg: float = 0.0, level: str = "coarse", *, reynolds: flo
     velocity is reset to U∞ plus the point vortex of the current C_L (:func:`vortex_velocity`; the outflow
     pressure stays 0), as in the TMR reference runs. ``startup``: from a fresh (potential) start, the
     first ``startup`` iterations run with ``alpha_u`` = :data:`STARTUP_ALPHA_U` (see there); not on restarts.
+    ``near_stall``: the default SST and settings are the near-stall ones (:func:`naca_turbulence`,
+    :func:`naca_settings`).
     """
     spec = mesh_spec if mesh_spec is not None else level
     cm = naca0012_cmesh(spec, alpha_deg=alpha_deg)
     fluid = Fluid(1.0, 1.0 / reynolds)
     model = None
     if turbulent:
-        model = turbulence or naca_turbulence()
+        model = turbulence or naca_turbulence(near_stall)
 
     def make_problem(c_l=None):
         bcs = boundary_conditions(alpha_deg, turbulent, c_l if vortex_correction else None)
@@ -310,7 +320,7 @@ def run_naca0012(alpha_deg: float = 0.0, level: str = "coarse", *, reynolds: flo
         return Problem.create(cm.mesh, bcs, fluid, turbulence=model)
 
     problem = make_problem()
-    cfg = settings or naca_settings(max_iter=convergence.chunk)
+    cfg = settings or naca_settings(near_stall, max_iter=convergence.chunk)
     gentle = dataclasses.replace(cfg, alpha_u=min(cfg.alpha_u, STARTUP_ALPHA_U))
     state = potential_start(problem, freestream(alpha_deg))
     done, cls, cds = 0, [], []
