@@ -175,7 +175,7 @@ def naca_turbulence(near_stall: bool = False) -> SST:
     """The case's k-omega SST: SST-2003 with the ``low_re`` wall treatment; ``near_stall``: with
     :data:`NEAR_STALL_SST`. With those and :data:`NEAR_STALL_SETTINGS` the lift on the coarse mesh is within
     1 % of OpenFOAM's ``kOmegaSST`` on the same mesh from 10 deg to C_L,max (docs/validation.md, "Findings
-    (session 3)" and "Adopted (session 4)")."""
+    (session 3)" and "Tried as the default (session 4)")."""
     return SST(wall_treatment="low_re", **(NEAR_STALL_SST if near_stall else {}))
 
 

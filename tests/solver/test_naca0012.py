@@ -205,7 +205,7 @@ def test_the_limited_start_up_counts_over_the_run_and_the_stop_test_waits_for_it
 
 def test_the_near_stall_variant_has_its_sst_terms_and_the_default_case_has_none():
     """The near-stall SST is SST-2003 (``low_re``) with OpenFOAM's limited omega production and the two-point wall
-    omega flux (docs/validation.md, "Adopted (session 4)"); the case's default SST is the plain SST-2003."""
+    omega flux (docs/validation.md, "Tried as the default (session 4)"); the case's default SST is the plain SST-2003."""
     from solver.turbulence import SST
     from solver.validation.naca0012 import naca_turbulence
 
