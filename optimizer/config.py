@@ -254,7 +254,7 @@ SETTING_RULES: dict[str, dict[str, Any]] = {
     "alpha_u": {"gt": 0, "le": 1, "why": "an under-relaxation factor"},
     "alpha_p": {"gt": 0, "le": 1, "why": "an under-relaxation factor"},
     "convection": {"choices": ("linear_upwind", "upwind")},
-    "limiter": {"choices": ("venkatakrishnan", "barth_jespersen", "none")},
+    "limiter": {"choices": ("venkatakrishnan", "venkatakrishnan_wang", "barth_jespersen", "none")},
     "limiter_k": {"gt": 0, "le": 1000, "why": "Venkatakrishnan's K: 0.3-10 in practice, and no limiting at all "
                   "long before 1000"},
     "limiter_iterations": {"ge": 0, "le": 100_000, "why": "iterations of the limited start-up; None: limited "

@@ -140,6 +140,55 @@ def _venkatakrishnan(mesh, phi, phi_b, grad, k):
     return psi.reshape(phi.shape)
 
 
+#: Scale of the limiter's ``k`` in :func:`_venkatakrishnan_wang`: ``K' = (k WANG_K_SCALE)^(3/2)``.
+WANG_K_SCALE = 0.01
+
+
+def _venkatakrishnan_wang(mesh, phi, phi_b, grad, k):
+    """Venkatakrishnan's limiter with Wang's ``eps``: ``eps = K' (max phi - min phi)``, the range of each
+    component over the whole field (cells and boundary faces), with ``K' = (k / 100)^(3/2)``, i.e.
+    ``eps² = (k / 100)³ (max - min)²``: Venkatakrishnan's ``(K h)³`` with a fixed nondimensional ``h``
+    of 1/100 instead of the cell size, in units of the field's range (SU2's ``VENKATAKRISHNAN`` likewise
+    uses a fixed reference length, on variables scaled by the free stream). ``limiter_k`` 5, 10, 13.6,
+    20 give ``K'`` = 0.011, 0.032, 0.050, 0.089 (SU2's ``VENKATAKRISHNAN_WANG`` default is 0.05), and
+    ``k -> 0`` the bounded min-max limit (``eps ∝ k^(3/2)``).
+
+    The limiter function is :func:`_venkatakrishnan`'s; only ``eps`` differs. Venkatakrishnan's
+    ``eps² = (K h)³`` (Venkatakrishnan 1995, J. Comput. Phys. 118, 120-130) compares m³ with the square of
+    the field's unit, so how strongly it limits depends on the units and the scale of the problem; in
+    the leading-edge boundary layer of the NACA 0012 case (c = 1 m, U = 1 m/s, h = √area of the thin
+    wall cells) it is ~1e-4 U against neighbour differences of ~0.1 U, a min-max limiter there
+    (docs/validation.md, "Findings (session 3)", item 5), and on the blades (C0 = 10 m/s, chord ~0.1 m)
+    relatively stronger still. Wang's ``eps`` is a fraction of the field's own range: ``psi`` is
+    unchanged when the field is scaled or offset (any unit, any speed) and when the mesh is scaled (any
+    length unit); differences between neighbours well below ``eps`` (smooth, resolved variation: the outer
+    flow, a resolved shear layer) pass nearly unlimited, while those of the order of the range (the
+    potential start's slip velocity meeting the no-slip wall, a front a few cells wide) are limited as
+    by Venkatakrishnan's function with ``eps -> 0``. Not strictly monotone: a reconstruction may
+    overshoot the neighbourhood by up to ``eps / √8``.
+
+    References: Z. J. Wang, "A fast nested multi-grid viscous flow solver for adaptive Cartesian/quad
+    grids", AIAA Paper 96-2091 (1996), Int. J. Numer. Meth. Fluids 33 (2000) 657-680; SU2's
+    ``SLOPE_LIMITER_FLOW= VENKATAKRISHNAN_WANG`` (``eps = VENKAT_LIMITER_COEFF (q_max - q_min)`` over the
+    domain, su2code.github.io, "Gradients and limiters"); on the choice of ``eps`` and the loss of
+    accuracy where Venkatakrishnan's limiter acts in smooth regions, K. Michalak and C. Ollivier-Gooch,
+    "Limiters for unstructured higher-order accurate solutions of the Euler equations", AIAA Paper
+    2008-776. One compiled loop over the cells (:func:`solver.kernels.venkatakrishnan_ranged`).
+    """
+    from .kernels import venkatakrishnan_ranged
+
+    nc, nb = mesh.n_cells, mesh.n_boundary
+    flat = np.ascontiguousarray(phi, dtype=float).reshape(nc, -1)
+    flat_b = np.ascontiguousarray(phi_b, dtype=float).reshape(nb, -1)
+    hi, lo = flat.max(axis=0), flat.min(axis=0)
+    if nb:
+        hi, lo = np.maximum(hi, flat_b.max(axis=0)), np.minimum(lo, flat_b.min(axis=0))
+    eps2 = (k * WANG_K_SCALE) ** 3 * (hi - lo) ** 2
+    psi = venkatakrishnan_ranged(flat, flat_b, mesh.cell_other, mesh.cell_r,
+                                 np.ascontiguousarray(grad, dtype=float).reshape(nc, -1, 2), eps2)
+    return psi.reshape(phi.shape)
+
+
 def _no_limiter(mesh, phi, phi_b, grad, k):
     """No limiting (``psi = 1``)."""
     return np.ones_like(phi)
@@ -151,6 +200,7 @@ LIMITERS: dict[str, Callable] = {
     "none": _no_limiter,
     "barth_jespersen": _barth_jespersen,
     "venkatakrishnan": _venkatakrishnan,
+    "venkatakrishnan_wang": _venkatakrishnan_wang,
 }
 
 

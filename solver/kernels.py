@@ -65,6 +65,39 @@ def venkatakrishnan(phi, phi_b, cell_other, cell_r, grad, eps2):
 
 
 @njit(cache=True)
+def venkatakrishnan_ranged(phi, phi_b, cell_other, cell_r, grad, eps2):
+    """Venkatakrishnan's limiter ``psi (nc, m)`` with one ``eps2`` per component, ``(m,)``, the same in every
+    cell (:func:`solver.gradient._venkatakrishnan_wang`: ``eps2 = (K' × the component's range)²``). The
+    formula and the order of its operations are those of :func:`venkatakrishnan`, whose ``eps2`` is per cell."""
+    nc, m = phi.shape
+    psi = np.empty((nc, m))
+    for c in range(nc):
+        for i in range(m):
+            pmax = phi[c, i]
+            pmin = phi[c, i]
+            for k in range(cell_other.shape[1]):
+                j = cell_other[c, k]
+                v = phi[j, i] if j < nc else phi_b[j - nc, i]
+                pmax = max(pmax, v)
+                pmin = min(pmin, v)
+            best = 1.0
+            e2 = eps2[i]
+            for k in range(cell_r.shape[1]):
+                delta = cell_r[c, k, 0] * grad[c, i, 0] + cell_r[c, k, 1] * grad[c, i, 1]
+                d1 = pmax - phi[c, i] if delta >= 0 else pmin - phi[c, i]
+                if abs(delta) > 1e-300:
+                    num = (d1**2 + e2) * delta + 2.0 * delta**2 * d1
+                    den = d1**2 + 2.0 * delta**2 + d1 * delta + e2
+                    p = min(max(num / (den * delta), 0.0), 1.0)
+                else:
+                    p = 1.0
+                if p < best or p != p:
+                    best = p
+            psi[c, i] = best
+    return psi
+
+
+@njit(cache=True)
 def deferred_correction(flux, grad, r_owner, r_neighbour, owner, neighbour):
     """``F_f grad_U·(x_f - x_U)`` per internal face and component ``(ni, m)`` (:func:`solver.assembly.
     deferred_correction`): ``U`` the upwind cell (owner where ``F_f >= 0``), grad ``(nc, m, 2)``,
