@@ -1,0 +1,193 @@
+"""An AMG hierarchy whose coarse operators follow a changing matrix: interpolation kept, Galerkin products redone.
+
+The pressure-correction matrix of a SIMPLE iteration keeps its sparsity pattern (the mesh's) while its values
+change from one outer iteration to the next. A Ruge–Stüben set-up (strength of connection, C/F splitting,
+interpolation weights, then the Galerkin products ``A_c = R A P``) costs ~25 ms on a 16 641-cell blade mesh,
+half of it pyamg's Python; one V-cycle 1.5 ms. Rebuilding it every 10 solves and using it unchanged in
+between (the preconditioner of :func:`solver.linalg._amg_cg` before this module) left the fine-level smoother
+and every coarse operator up to 9 outer iterations old: 3.9 CG iterations per solve on the benchmark blade,
+up to 25 in the first iterations, where the matrix changes most.
+
+:class:`GalerkinHierarchy` keeps the interpolation ``P`` of each level of a pyamg hierarchy and re-forms the
+coarse operators from the current fine matrix. ``R A P`` with fixed ``P`` and a fixed pattern of ``A`` is a
+fixed linear map of ``A``'s stored values, ``A_c.data = G A.data`` with ``G[(I, J), (i, j)] = P[i, I] P[j, J]``
+(:func:`galerkin_map`, built once per set-up), so a refresh is one sparse product per level (0.14 ms on the
+finest level) instead of a set-up. With the interpolation of the first pressure system kept for the whole
+solve, the benchmark blade's 310 pressure solves took 3.2 CG iterations on average, at most 4
+(``/work/notes/p5/amg_exp.py`` on the captured systems; docs/performance.md, session 5).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.linalg as sla
+import scipy.sparse as sp
+from numba import njit
+
+from .kernels import csr_matvec, csr_residual, gauss_seidel_sweeps, unsigned
+
+
+def galerkin_map(indptr: np.ndarray, indices: np.ndarray, P: sp.csr_matrix, symmetric: bool = False):
+    """The coarse operator ``P^T A P`` as a linear map of ``A``'s stored values, for a fixed pattern of ``A``
+    (CSR ``indptr``, ``indices``) and a fixed interpolation ``P`` (n x n_c).
+
+    Returns ``(G, rows, c_indptr, c_indices, mirror)``: ``G`` CSR with ``coarse_data[rows] = G @ A.data``,
+    the coarse CSR pattern (sorted columns; every product that can be non-zero is stored, also where values
+    cancel, so the pattern does not depend on ``A``'s values), and ``mirror`` ``(2, m)``: the coarse slots
+    filled by copying, ``coarse_data[mirror[0]] = coarse_data[mirror[1]]``. ``symmetric``: ``A`` is
+    symmetric (values and pattern), so ``G`` forms the entries ``I <= J`` only and the others are mirrored
+    (half the products; the coarse matrix exactly symmetric); else ``rows`` is every slot and ``mirror``
+    empty."""
+    n = indptr.size - 1
+    rows = np.repeat(np.arange(n), np.diff(indptr))
+    cols = np.asarray(indices, dtype=np.int64)
+    P = P.tocsr()
+    p_len = np.diff(P.indptr)
+    len_i, len_j = p_len[rows], p_len[cols]
+    count = len_i * len_j                           # products P[i, I] A[i, j] P[j, J] per entry (i, j)
+    entry = np.repeat(np.arange(cols.size), count)
+    offset = np.arange(count.sum()) - np.repeat(np.cumsum(count) - count, count)
+    per_row = len_j[entry]
+    slot_i = P.indptr[rows[entry]] + offset // per_row
+    slot_j = P.indptr[cols[entry]] + offset % per_row
+    n_c = P.shape[1]
+    big_i, big_j = P.indices[slot_i].astype(np.int64), P.indices[slot_j].astype(np.int64)
+    coarse, position = np.unique(big_i * n_c + big_j, return_inverse=True)
+    position = position.ravel()
+    c_rows, c_cols = coarse // n_c, coarse % n_c
+    c_indptr = np.concatenate([[0], np.cumsum(np.bincount(c_rows, minlength=n_c))])
+    if symmetric:
+        formed = np.flatnonzero(c_rows <= c_cols)
+        copied = np.flatnonzero(c_rows > c_cols)
+        source = np.searchsorted(coarse, c_cols[copied] * n_c + c_rows[copied])
+        if not np.array_equal(coarse[source], c_cols[copied] * n_c + c_rows[copied]):
+            raise ValueError("the coarse pattern is not symmetric")
+        keep = big_i <= big_j
+        row_of = np.full(coarse.size, -1, dtype=np.int64)
+        row_of[formed] = np.arange(formed.size)
+        G = sp.csr_matrix((P.data[slot_i[keep]] * P.data[slot_j[keep]], (row_of[position[keep]], entry[keep])),
+                          shape=(formed.size, cols.size))
+        mirror = np.stack([copied, source])
+    else:
+        formed = np.arange(coarse.size)
+        G = sp.csr_matrix((P.data[slot_i] * P.data[slot_j], (position, entry)), shape=(coarse.size, cols.size))
+        mirror = np.zeros((2, 0), dtype=np.int64)
+    return G, formed, c_indptr, c_cols, mirror
+
+
+@njit(cache=True)
+def _refresh_level(data, diag_slots, off_slots, g_ptr, g_idx, g_val, g_rows, mirror, off_val, inv_diag, coarse):
+    """One level's refresh in one pass: the reciprocal diagonal and the off-diagonal values for the
+    smoother, and the next level's values ``coarse[g_rows] = G data``, ``coarse[mirror[0]] =
+    coarse[mirror[1]]`` (:func:`galerkin_map`)."""
+    for i in range(diag_slots.shape[0]):
+        d = data[diag_slots[i]] if diag_slots[i] >= 0 else 0.0
+        inv_diag[i] = 1.0 / d if d != 0.0 else 0.0
+    for k in range(off_slots.shape[0]):
+        off_val[k] = data[off_slots[k]]
+    for r in range(g_rows.shape[0]):
+        s = 0.0
+        for jj in range(g_ptr[r], g_ptr[r + 1]):
+            s += g_val[jj] * data[g_idx[jj]]
+        coarse[g_rows[r]] = s
+    for m in range(mirror.shape[1]):
+        coarse[mirror[0, m]] = coarse[mirror[1, m]]
+
+
+class _Level:
+    """One level above the coarsest: the pattern of its matrix, the split into diagonal and off-diagonal
+    slots, its interpolation and restriction, and the Galerkin map to the next level."""
+
+    def __init__(self, indptr: np.ndarray, indices: np.ndarray, P: sp.csr_matrix, symmetric: bool):
+        self.n, self.n_coarse = indptr.size - 1, P.shape[1]
+        self.indptr, self.indices = unsigned(indptr), unsigned(indices)
+        rows = np.repeat(np.arange(self.n), np.diff(indptr))
+        is_diag = rows == indices
+        self.diag_slots = np.full(self.n, -1, dtype=np.int64)
+        self.diag_slots[rows[is_diag]] = np.flatnonzero(is_diag)
+        self.off_slots = np.flatnonzero(~is_diag)
+        self.off_indptr = unsigned(np.concatenate([[0], np.cumsum(np.bincount(rows[~is_diag], minlength=self.n))]))
+        self.off_indices = unsigned(indices[~is_diag])
+        P = P.tocsr()
+        R = P.T.tocsr()
+        self.P = (unsigned(P.indptr), unsigned(P.indices), P.data)
+        self.R = (unsigned(R.indptr), unsigned(R.indices), R.data)
+        G, g_rows, self.c_indptr, self.c_indices, self.mirror = galerkin_map(indptr, indices, P, symmetric)
+        self.G = (unsigned(G.indptr), unsigned(G.indices), G.data, g_rows)
+        self.off_val = np.empty(self.off_slots.size)
+        self.inv_diag = np.empty(self.n)
+        self.coarse = np.empty(self.c_indices.size)
+        self.smooth = (self.off_indptr, self.off_indices, self.off_val, self.inv_diag)
+        self.data = None
+
+    def refresh(self, data: np.ndarray) -> np.ndarray:
+        """Take ``data`` as this level's matrix values; returns the next level's (a buffer of this level,
+        overwritten by the next refresh)."""
+        self.data = data
+        _refresh_level(data, self.diag_slots, self.off_slots, *self.G, self.mirror, self.off_val, self.inv_diag,
+                       self.coarse)
+        return self.coarse
+
+
+class GalerkinHierarchy:
+    """A V-cycle preconditioner ``z = M r`` (from a zero guess; one symmetric Gauss–Seidel sweep before and
+    after the coarse-grid correction on each level, a dense factorisation on the coarsest) on the levels of a
+    pyamg hierarchy ``ml`` whose interpolation operators are kept and whose operators are re-formed from
+    the matrix given to :meth:`refresh` (the pattern ``indptr``, ``indices`` of the matrix ``ml`` was built
+    on). The cycle of :class:`solver.linalg.VCycle`, on refreshed operators. ``symmetric``: the matrices
+    are symmetric (the CG case), so each Galerkin map forms half the coarse entries (:func:`galerkin_map`)."""
+
+    def __init__(self, ml, indptr: np.ndarray, indices: np.ndarray, symmetric: bool = False):
+        self.indptr, self.indices = indptr, indices
+        self.levels: list[_Level] = []
+        for lvl in ml.levels[:-1]:
+            level = _Level(np.asarray(indptr), np.asarray(indices), lvl.P, symmetric)
+            self.levels.append(level)
+            indptr, indices = level.c_indptr, level.c_indices
+        n = indptr.size - 1
+        self.coarse_n = n
+        self.coarse_slots = (np.repeat(np.arange(n), np.diff(indptr)), np.asarray(indices, dtype=np.int64))
+        self.coarse_factor = None
+
+    def matches(self, A: sp.csr_matrix) -> bool:
+        """Whether ``A`` has the pattern this hierarchy was built for."""
+        return A.indptr is self.indptr or (A.indptr.size == self.indptr.size and A.indices.size == self.indices.size
+                                           and np.array_equal(A.indptr, self.indptr)
+                                           and np.array_equal(A.indices, self.indices))
+
+    def refresh(self, data: np.ndarray) -> None:
+        """Re-form every level's operator from the fine matrix values ``data`` (the set-up's pattern)."""
+        data = np.ascontiguousarray(data, dtype=float)
+        for level in self.levels:
+            data = level.refresh(data)
+        dense = np.zeros((self.coarse_n, self.coarse_n))
+        dense[self.coarse_slots] = data
+        try:
+            self.coarse_factor = ("cholesky", sla.cho_factor(dense))
+        except (np.linalg.LinAlgError, ValueError):          # not SPD: pyamg's default, the pseudo-inverse
+            self.coarse_factor = ("pinv", sla.pinv(dense))
+
+    def _coarse_solve(self, b: np.ndarray) -> np.ndarray:
+        kind, factor = self.coarse_factor
+        return sla.cho_solve(factor, b) if kind == "cholesky" else factor @ b
+
+    def __call__(self, b: np.ndarray) -> np.ndarray:
+        b = np.ascontiguousarray(b, dtype=float)
+        if not self.levels:
+            return self._coarse_solve(b)
+        x = np.zeros_like(b)
+        self._cycle(0, x, b)
+        return x
+
+    def _cycle(self, k: int, x: np.ndarray, b: np.ndarray) -> None:
+        level = self.levels[k]
+        gauss_seidel_sweeps(*level.smooth, x, b, 1)
+        residual = csr_residual(level.indptr, level.indices, level.data, x, b)
+        coarse_b = csr_matvec(*level.R, residual, level.n_coarse)
+        if k == len(self.levels) - 1:
+            coarse_x = self._coarse_solve(coarse_b)
+        else:
+            coarse_x = np.zeros_like(coarse_b)
+            self._cycle(k + 1, coarse_x, coarse_b)
+        x += csr_matvec(*level.P, coarse_x, level.n)
+        gauss_seidel_sweeps(*level.smooth, x, b, 1)

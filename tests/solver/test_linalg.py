@@ -1,0 +1,91 @@
+"""The AMG hierarchy with refreshed Galerkin operators (:mod:`solver.amg`) and its use by the pressure CG."""
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+
+from solver.amg import GalerkinHierarchy, galerkin_map
+from solver.linalg import AMG_HIERARCHIES, FVPattern, LinearSystem, VCycle, _amg_cg, _seeded, _with_fast_smoothers
+from solver.validation.meshes import square_mesh
+
+
+@pytest.fixture(scope="module")
+def mesh():
+    return square_mesh(24, triangles="checker", strength=0.4, distort=0.3, seed=5)
+
+
+def pressure_like_system(mesh, seed: int) -> LinearSystem:
+    """A pinned FV Laplacian with random face coefficients (as the p' system without an outlet), random rhs;
+    the same pattern for every seed."""
+    rng = np.random.default_rng(seed)
+    c = rng.uniform(0.5, 2.0, mesh.n_internal)
+    o, n = mesh.owner[:mesh.n_internal], mesh.neighbour[:mesh.n_internal]
+    diag = np.bincount(o, c, mesh.n_cells) + np.bincount(n, c, mesh.n_cells)
+    diag[0] *= 2.0
+    pattern = mesh.info.setdefault("test_pattern", FVPattern.from_mesh(mesh))
+    return LinearSystem(pattern.matrix(diag, -c, -c), rng.standard_normal(mesh.n_cells), np.zeros(mesh.n_cells),
+                        pattern)
+
+
+@pytest.mark.parametrize("symmetric", [False, True])
+def test_galerkin_map_equals_triple_product(mesh, symmetric):
+    """``G A.data`` (and the mirrored entries) equals scipy's ``P^T A P`` for a matrix other than the one the
+    interpolation was built on, on every level; a non-symmetric ``A`` with ``symmetric=False``."""
+    A = pressure_like_system(mesh, 1).A
+    ml = _seeded(AMG_HIERARCHIES["ruge_stuben"], A)
+    assert len(ml.levels) >= 3
+    B = pressure_like_system(mesh, 2).A
+    if not symmetric:
+        B = B.copy()
+        B.data *= np.random.default_rng(3).uniform(0.5, 1.5, B.nnz)
+    indptr, indices, data = B.indptr, B.indices, B.data
+    for lvl in ml.levels[:-1]:
+        G, rows, c_indptr, c_indices, mirror = galerkin_map(indptr, indices, lvl.P, symmetric)
+        coarse = np.empty(c_indices.size)
+        coarse[rows] = G @ data
+        coarse[mirror[0]] = coarse[mirror[1]]
+        mine = sp.csr_matrix((coarse, c_indices, c_indptr), shape=(lvl.P.shape[1],) * 2)
+        ref = (lvl.P.T @ sp.csr_matrix((data, indices, indptr), shape=(lvl.P.shape[0],) * 2) @ lvl.P).tocsr()
+        assert abs(mine - ref).max() <= 1e-13 * abs(ref).max()
+        assert symmetric == (mirror.shape[1] > 0)
+        indptr, indices, data = c_indptr, c_indices, coarse
+
+
+def test_refreshed_cycle_equals_v_cycle_of_the_new_galerkin_operators(mesh):
+    """After :meth:`GalerkinHierarchy.refresh` with another matrix, the cycle is :class:`VCycle` on a
+    hierarchy with the same interpolation and the exact Galerkin operators of that matrix (to round-off:
+    Cholesky instead of pinv on the coarsest level)."""
+    from pyamg.multilevel import MultilevelSolver
+
+    A = pressure_like_system(mesh, 1).A
+    ml = _seeded(AMG_HIERARCHIES["ruge_stuben"], A)
+    new = pressure_like_system(mesh, 4)
+    levels, B = [], new.A
+    for lvl in ml.levels[:-1]:
+        level = MultilevelSolver.Level()
+        level.A, level.P, level.R = B, lvl.P, lvl.R
+        levels.append(level)
+        B = (lvl.R @ B @ lvl.P).tocsr()
+    last = MultilevelSolver.Level()
+    last.A = B
+    reference = VCycle(_with_fast_smoothers(MultilevelSolver(levels + [last], coarse_solver="pinv")))
+    cycle = GalerkinHierarchy(ml, A.indptr, A.indices, symmetric=True)
+    assert cycle.matches(new.A)
+    cycle.refresh(new.A.data)
+    np.testing.assert_allclose(cycle(new.b), reference(new.b), rtol=1e-10, atol=1e-12 * np.abs(reference(new.b)).max())
+
+
+def test_amg_cg_galerkin_keeps_one_set_up_and_meets_the_tolerance(mesh):
+    """``galerkin=True``: one set-up for a sequence of matrices of one pattern, each solve to ``tol``;
+    ``rebuild_above`` forces a new set-up after a solve above that many CG iterations."""
+    state: dict = {}
+    first = None
+    for seed in range(5):
+        system = pressure_like_system(mesh, seed)
+        x, stats = _amg_cg(system, 1e-8, 100, state, rebuild_every=1000, galerkin=True)
+        assert np.linalg.norm(system.b - system.A @ x) <= 1e-8 * np.linalg.norm(system.b)
+        assert 0 < stats.iterations < 30
+        first = state["ml"] if first is None else first
+        assert state["ml"] is first and isinstance(state["precondition"], GalerkinHierarchy)
+    _amg_cg(pressure_like_system(mesh, 7), 1e-8, 100, state, rebuild_every=1000, galerkin=True, rebuild_above=0)
+    assert state["ml"] is not first
