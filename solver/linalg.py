@@ -203,7 +203,7 @@ def _pyamg():
 
 def _amg_cg(system: LinearSystem, tol: float = 1e-2, maxiter: int = 100, state: dict | None = None,
             rebuild_every: int = 10, hierarchy: str = "ruge_stuben", galerkin: bool = False,
-            rebuild_above: int | None = None):
+            rebuild_above: int | None = None, refresh_after: int = 0):
     """CG preconditioned by one V-cycle of a pyamg hierarchy (SPD matrices), :data:`AMG_HIERARCHIES`.
 
     The hierarchy is kept in ``state`` and rebuilt every ``rebuild_every`` calls: the pressure matrix
@@ -211,8 +211,10 @@ def _amg_cg(system: LinearSystem, tol: float = 1e-2, maxiter: int = 100, state: 
     ``galerkin``: between set-ups, keep only the hierarchy's interpolation and re-form every level's
     operator from this call's matrix (:class:`solver.amg.GalerkinHierarchy`: one fixed sparse map per
     level, 0.7 ms against a 25 ms set-up at 16 641 cells), so that the cycle always smooths the current
-    matrix; otherwise the whole hierarchy is reused as built until the next set-up. ``rebuild_above``: also
-    rebuild after a call that took more than this many CG iterations (None: never).
+    matrix; otherwise the whole hierarchy is reused as built until the next set-up. ``refresh_after``: with
+    ``galerkin``, the first ``refresh_after`` calls of a solve use the first set-up as built (no refresh),
+    as the non-Galerkin path does. ``rebuild_above``: also rebuild after a call that took more than this many
+    CG iterations (None: never; not counted in those first calls).
     Classical Ruge–Stüben by default: on the pressure-correction matrix of a blade mesh (16 641 cells,
     boundary-layer cells of aspect ratio ~1e3) it reaches the relative tolerance 0.05 in 2 CG iterations
     and 8 ms, smoothed aggregation in 8 iterations and 26 ms (its aggregates ignore the anisotropy that
@@ -227,8 +229,9 @@ def _amg_cg(system: LinearSystem, tol: float = 1e-2, maxiter: int = 100, state: 
         raise ValueError(f"unknown AMG hierarchy {hierarchy!r}; choose from {sorted(AMG_HIERARCHIES)}") from None
     state = {} if state is None else state
     calls = state.get("calls", 0)
+    total = state["total"] = state.get("total", 0) + 1
     stale = "ml" not in state or calls % rebuild_every == 0 or (
-        rebuild_above is not None and state.get("last_iterations", 0) > rebuild_above)
+        rebuild_above is not None and state.get("last_iterations", 0) > rebuild_above and total > refresh_after + 1)
     if galerkin:
         from .amg import GalerkinHierarchy
 
@@ -236,7 +239,8 @@ def _amg_cg(system: LinearSystem, tol: float = 1e-2, maxiter: int = 100, state: 
             ml = state["ml"] = _seeded(build, system.A)
             state["precondition"] = GalerkinHierarchy(ml, system.A.indptr, system.A.indices, symmetric=True)
             calls = 0
-        state["precondition"].refresh(system.A.data)
+        if calls == 0 or total > refresh_after:
+            state["precondition"].refresh(system.A.data)
     elif stale:
         ml = state["ml"] = _seeded(build, system.A)
         state["precondition"] = VCycle(ml) if VCycle.applies(ml) else ml.aspreconditioner(cycle="V").matvec

@@ -89,3 +89,13 @@ def test_amg_cg_galerkin_keeps_one_set_up_and_meets_the_tolerance(mesh):
         assert state["ml"] is first and isinstance(state["precondition"], GalerkinHierarchy)
     _amg_cg(pressure_like_system(mesh, 7), 1e-8, 100, state, rebuild_every=1000, galerkin=True, rebuild_above=0)
     assert state["ml"] is not first
+
+
+def test_amg_cg_refresh_after_reuses_the_first_set_up_as_built(mesh):
+    """``refresh_after=2``: the first two calls solve with the operators of the first matrix, the third
+    refreshes them from its own."""
+    state: dict = {}
+    systems = [pressure_like_system(mesh, seed) for seed in range(3)]
+    for k, system in enumerate(systems):
+        _amg_cg(system, 1e-8, 100, state, rebuild_every=1000, galerkin=True, rebuild_above=0, refresh_after=2)
+        np.testing.assert_array_equal(state["precondition"].levels[0].data, systems[0 if k < 2 else 2].A.data)
