@@ -10,6 +10,16 @@ from dataclasses import dataclass, field
 
 from .linalg import SolverSettings
 
+#: Options of the default pressure solver (:func:`solver.linalg._amg_cg`, relative tolerance 0.05): one
+#: Ruge–Stüben set-up per steady solve, reused as built for the first 10 pressure solves (the start-up
+#: transient, as before), then kept for its interpolation only while every level's operator is re-formed from
+#: each iteration's p' matrix (``galerkin``, :class:`solver.amg.GalerkinHierarchy`, 0.7 ms per refresh); a new
+#: set-up after 1 000 solves or after one that took more than 8 CG iterations. Benchmark blade at medium
+#: (docs/performance.md, session 5): one set-up instead of 31 (0.70 -> 0.06 s CPU), 3.2 instead of 3.3 CG
+#: iterations per solve after the first 10, the AMG part of an iteration 8.8 -> 7.6 ms, the same 310 outer
+#: iterations. Refreshing from the first solve made that blade's start-up transient slower (320).
+PRESSURE_AMG = {"galerkin": True, "rebuild_every": 1000, "rebuild_above": 8, "refresh_after": 10}
+
 
 @dataclass(frozen=True)
 class SimpleSettings:
@@ -73,7 +83,9 @@ class SimpleSettings:
     blas_threads: BLAS threads while iterating (via threadpoolctl when installed; None: leave as is).
         The per-iteration work is many small vector operations, where BLAS threads only contend
         (measured 5x slower with default OpenBLAS threading on a busy 2-core machine).
-    momentum_solver, pressure_solver: linear solvers of the momentum and pressure-correction systems.
+    momentum_solver, pressure_solver: linear solvers of the momentum and pressure-correction systems. The
+        pressure default: CG preconditioned by AMG with refreshed Galerkin operators (:data:`PRESSURE_AMG`) to
+        a relative residual of 0.05 (0.1 diverges on the coarse benchmark blade within 4 iterations).
     """
 
     algorithm: str = "simplec"
@@ -100,7 +112,7 @@ class SimpleSettings:
     divergence_factor: float = 1e5
     velocity_limit: float = 1e4
     momentum_solver: SolverSettings = field(default_factory=lambda: SolverSettings("gauss_seidel", 0.1, 8))
-    pressure_solver: SolverSettings = field(default_factory=lambda: SolverSettings("amg", 0.05, 50))
+    pressure_solver: SolverSettings = field(default_factory=lambda: SolverSettings("amg", 0.05, 50, dict(PRESSURE_AMG)))
 
     @property
     def pressure_relaxation(self) -> float:
