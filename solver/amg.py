@@ -5,16 +5,16 @@ change from one outer iteration to the next. A Ruge–Stüben set-up (strength o
 interpolation weights, then the Galerkin products ``A_c = R A P``) costs ~25 ms on a 16 641-cell blade mesh,
 half of it pyamg's Python; one V-cycle 1.5 ms. Rebuilding it every 10 solves and using it unchanged in
 between (the preconditioner of :func:`solver.linalg._amg_cg` before this module) left the fine-level smoother
-and every coarse operator up to 9 outer iterations old: 3.9 CG iterations per solve on the benchmark blade,
-up to 25 in the first iterations, where the matrix changes most.
+and every coarse operator up to 9 outer iterations old.
 
 :class:`GalerkinHierarchy` keeps the interpolation ``P`` of each level of a pyamg hierarchy and re-forms the
 coarse operators from the current fine matrix. ``R A P`` with fixed ``P`` and a fixed pattern of ``A`` is a
 fixed linear map of ``A``'s stored values, ``A_c.data = G A.data`` with ``G[(I, J), (i, j)] = P[i, I] P[j, J]``
-(:func:`galerkin_map`, built once per set-up), so a refresh is one sparse product per level (0.14 ms on the
-finest level) instead of a set-up. With the interpolation of the first pressure system kept for the whole
-solve, the benchmark blade's 310 pressure solves took 3.2 CG iterations on average, at most 4
-(``/work/notes/p5/amg_exp.py`` on the captured systems; docs/performance.md, session 5).
+(:func:`galerkin_map`, built once per set-up), so a refresh is one sparse product per level (0.7 ms in all
+at 16 641 cells) instead of a set-up. On the benchmark blade at medium, with the first system's interpolation
+kept for the whole solve, the pressure solves took 3.2 CG iterations after the first 10 (at most 4) against
+3.3 with the whole hierarchy rebuilt every 10 solves, and 31 set-ups (0.70 s CPU) became one
+(docs/performance.md, session 5).
 """
 
 from __future__ import annotations
