@@ -128,16 +128,24 @@ def _venkatakrishnan(mesh, phi, phi_b, grad, k):
     ``psi = min_f clip(((d1² + eps²) Δ_f + 2 Δ_f² d1) / ((d1² + 2 Δ_f² + d1 Δ_f + eps²) Δ_f), 0, 1)``; one
     compiled loop over the cells (:func:`solver.kernels.venkatakrishnan`), about 10x the numpy form's speed.
     """
-    from .kernels import venkatakrishnan
-
     eps2 = mesh.info.get(("venkatakrishnan_eps2", k))
     if eps2 is None:
         eps2 = mesh.info[("venkatakrishnan_eps2", k)] = (k * mesh.cell_size()) ** 3
+    flat = np.ascontiguousarray(phi, dtype=float).reshape(mesh.n_cells, -1)
+    return _venkatakrishnan_psi(mesh, flat, phi_b, grad, eps2, np.zeros(flat.shape[1])).reshape(phi.shape)
+
+
+def _venkatakrishnan_psi(mesh, flat, phi_b, grad, eps2_cell, eps2_component):
+    """``psi (nc, m)`` of Venkatakrishnan's limiter function for ``flat (nc, m)`` with ``eps² = eps2_cell (nc,)
+    + eps2_component (m,)`` (one of them zero): one compiled loop over the cells
+    (:func:`solver.kernels.venkatakrishnan`)."""
+    from .kernels import venkatakrishnan
+
     nc, nb = mesh.n_cells, mesh.n_boundary
-    psi = venkatakrishnan(np.ascontiguousarray(phi, dtype=float).reshape(nc, -1),
-                          np.ascontiguousarray(phi_b, dtype=float).reshape(nb, -1), mesh.cell_other, mesh.cell_r,
-                          np.ascontiguousarray(grad, dtype=float).reshape(nc, -1, 2), eps2)
-    return psi.reshape(phi.shape)
+    return venkatakrishnan(flat, np.ascontiguousarray(phi_b, dtype=float).reshape(nb, -1), mesh.cell_other,
+                           mesh.cell_r, np.ascontiguousarray(grad, dtype=float).reshape(nc, -1, 2),
+                           np.ascontiguousarray(eps2_cell, dtype=float),
+                           np.ascontiguousarray(eps2_component, dtype=float))
 
 
 #: Scale of the limiter's ``k`` in :func:`_venkatakrishnan_wang`: ``K' = (k WANG_K_SCALE)^(3/2)``.
@@ -173,10 +181,8 @@ def _venkatakrishnan_wang(mesh, phi, phi_b, grad, k):
     domain, su2code.github.io, "Gradients and limiters"); on the choice of ``eps`` and the loss of
     accuracy where Venkatakrishnan's limiter acts in smooth regions, K. Michalak and C. Ollivier-Gooch,
     "Limiters for unstructured higher-order accurate solutions of the Euler equations", AIAA Paper
-    2008-776. One compiled loop over the cells (:func:`solver.kernels.venkatakrishnan_ranged`).
+    2008-776. One compiled loop over the cells (:func:`solver.kernels.venkatakrishnan`, as Venkatakrishnan's).
     """
-    from .kernels import venkatakrishnan_ranged
-
     nc, nb = mesh.n_cells, mesh.n_boundary
     flat = np.ascontiguousarray(phi, dtype=float).reshape(nc, -1)
     flat_b = np.ascontiguousarray(phi_b, dtype=float).reshape(nb, -1)
@@ -184,9 +190,7 @@ def _venkatakrishnan_wang(mesh, phi, phi_b, grad, k):
     if nb:
         hi, lo = np.maximum(hi, flat_b.max(axis=0)), np.minimum(lo, flat_b.min(axis=0))
     eps2 = (k * WANG_K_SCALE) ** 3 * (hi - lo) ** 2
-    psi = venkatakrishnan_ranged(flat, flat_b, mesh.cell_other, mesh.cell_r,
-                                 np.ascontiguousarray(grad, dtype=float).reshape(nc, -1, 2), eps2)
-    return psi.reshape(phi.shape)
+    return _venkatakrishnan_psi(mesh, flat, flat_b, grad, np.zeros(nc), eps2).reshape(phi.shape)
 
 
 def _no_limiter(mesh, phi, phi_b, grad, k):

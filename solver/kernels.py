@@ -27,16 +27,18 @@ def unsigned(indices: np.ndarray) -> np.ndarray:
 
 
 @njit(cache=True)
-def venkatakrishnan(phi, phi_b, cell_other, cell_r, grad, eps2):
+def venkatakrishnan(phi, phi_b, cell_other, cell_r, grad, eps2_cell, eps2_component):
     """Venkatakrishnan's limiter ``psi (nc, m)`` of the ``m`` components of a field
     (:data:`solver.gradient.LIMITERS`).
 
     phi ``(nc, m)``, phi_b ``(nb, m)`` boundary-face values; cell_other ``(nc, 4)`` index into ``concat(phi,
     phi_b)`` across each cell face (the cell itself on padding); cell_r ``(nc, 4, 2)`` centroid -> face
-    centre (zero on padding), m; grad ``(nc, m, 2)``; eps2 ``(nc,)`` = ``(k h)³``. Per cell and component,
-    with ``Δ_f = grad·r_f`` and ``d1 = max - phi`` (``Δ_f >= 0``) or ``min - phi`` over the cell and its face
-    neighbours: ``psi = min_f clip(((d1² + eps2) Δ_f + 2 Δ_f² d1) / ((d1² + 2 Δ_f² + d1 Δ_f + eps2) Δ_f),
-    0, 1)`` (1 where ``|Δ_f| <= 1e-300``)."""
+    centre (zero on padding), m; grad ``(nc, m, 2)``; ``eps2 = eps2_cell[c] + eps2_component[i]``, one of the
+    two zero: Venkatakrishnan's ``(k h)³`` per cell ``(nc,)``, or Wang's ``(K' × range)²`` per component
+    ``(m,)`` (adding the zero changes no bit). Per cell and component, with ``Δ_f = grad·r_f`` and
+    ``d1 = max - phi`` (``Δ_f >= 0``) or ``min - phi`` over the cell and its face neighbours:
+    ``psi = min_f clip(((d1² + eps2) Δ_f + 2 Δ_f² d1) / ((d1² + 2 Δ_f² + d1 Δ_f + eps2) Δ_f), 0, 1)``
+    (1 where ``|Δ_f| <= 1e-300``)."""
     nc, m = phi.shape
     psi = np.empty((nc, m))
     for c in range(nc):
@@ -49,39 +51,7 @@ def venkatakrishnan(phi, phi_b, cell_other, cell_r, grad, eps2):
                 pmax = max(pmax, v)
                 pmin = min(pmin, v)
             best = 1.0
-            for k in range(cell_r.shape[1]):
-                delta = cell_r[c, k, 0] * grad[c, i, 0] + cell_r[c, k, 1] * grad[c, i, 1]
-                d1 = pmax - phi[c, i] if delta >= 0 else pmin - phi[c, i]
-                if abs(delta) > 1e-300:
-                    num = (d1**2 + eps2[c]) * delta + 2.0 * delta**2 * d1
-                    den = d1**2 + 2.0 * delta**2 + d1 * delta + eps2[c]
-                    p = min(max(num / (den * delta), 0.0), 1.0)
-                else:
-                    p = 1.0
-                if p < best or p != p:
-                    best = p
-            psi[c, i] = best
-    return psi
-
-
-@njit(cache=True)
-def venkatakrishnan_ranged(phi, phi_b, cell_other, cell_r, grad, eps2):
-    """Venkatakrishnan's limiter ``psi (nc, m)`` with one ``eps2`` per component, ``(m,)``, the same in every
-    cell (:func:`solver.gradient._venkatakrishnan_wang`: ``eps2 = (K' × the component's range)²``). The
-    formula and the order of its operations are those of :func:`venkatakrishnan`, whose ``eps2`` is per cell."""
-    nc, m = phi.shape
-    psi = np.empty((nc, m))
-    for c in range(nc):
-        for i in range(m):
-            pmax = phi[c, i]
-            pmin = phi[c, i]
-            for k in range(cell_other.shape[1]):
-                j = cell_other[c, k]
-                v = phi[j, i] if j < nc else phi_b[j - nc, i]
-                pmax = max(pmax, v)
-                pmin = min(pmin, v)
-            best = 1.0
-            e2 = eps2[i]
+            e2 = eps2_cell[c] + eps2_component[i]
             for k in range(cell_r.shape[1]):
                 delta = cell_r[c, k, 0] * grad[c, i, 0] + cell_r[c, k, 1] * grad[c, i, 1]
                 d1 = pmax - phi[c, i] if delta >= 0 else pmin - phi[c, i]

@@ -22,7 +22,8 @@ def sample(mesh, f):
 
 
 def wang_numpy(mesh, phi, phi_b, grad, k):
-    """The numpy form (the reference of :func:`solver.kernels.venkatakrishnan_ranged`), scalar ``phi``."""
+    """The numpy form (the reference of :func:`solver.kernels.venkatakrishnan` with a per-component eps²),
+    scalar ``phi``."""
     pmax, pmin = neighbour_bounds(mesh, phi, phi_b)
     delta = np.einsum("cki,ci->ck", mesh.cell_r, grad)
     d1 = np.where(delta >= 0, (pmax - phi)[:, None], (pmin - phi)[:, None])
