@@ -255,7 +255,8 @@ SETTING_RULES: dict[str, dict[str, Any]] = {
     "alpha_p": {"gt": 0, "le": 1, "why": "an under-relaxation factor"},
     "convection": {"choices": ("linear_upwind", "upwind")},
     "limiter": {"choices": ("venkatakrishnan", "venkatakrishnan_wang", "barth_jespersen", "none")},
-    "limiter_k": {"gt": 0, "le": 1000, "why": "Venkatakrishnan's K: 0.3-10 in practice, and no limiting at all "
+    "limiter_k": {"gt": 0, "le": 1000, "why": "the limiter's K: 0.3-10 in practice for venkatakrishnan, 10-80 for "
+                  "venkatakrishnan_wang, and no limiting at all "
                   "long before 1000"},
     "limiter_iterations": {"ge": 0, "le": 100_000, "why": "iterations of the limited start-up; None: limited "
                            "throughout"},
