@@ -34,7 +34,7 @@ count and the iteration count), so several millfoil variants are compared with o
 ``--mf-set KEY=VALUE`` (repeatable): a ``solver:`` key (a :class:`solver.SimpleSettings` field, e.g.
 ``limiter_iterations=300``, ``pressure_gradient=green_gauss``) or an :class:`solver.turbulence.SST` field
 (``omega_production=limited``, ``omega_wall_flux=two_point``); values are read as JSON where they parse
-(``bench_robustness.solver_overrides``). ``--out`` appends JSON lines (one per blade and variant);
+(``bench_robustness.overrides``). ``--out`` appends JSON lines (one per blade and variant);
 ``--report FILE ...`` prints the tables and the summary against issue 15's criteria (lift within 1.5 %,
 C_max within 1 %, same class) of finished records without running anything.
 
@@ -66,7 +66,7 @@ sys.path.insert(0, str(ROOT / "bench"))
 
 from bench_openfoam import BLADE_PATCH_TYPES, run_openfoam, write_case  # noqa: E402
 from bench_paper_blades import BLADES as PAPER_BLADES  # noqa: E402
-from bench_robustness import draw_blades, solver_overrides  # noqa: E402
+from bench_robustness import draw_blades, overrides  # noqa: E402
 from openfoam_case import DEPTH, ensure_openfoam, latest_time, read_dat, read_field, write_polymesh  # noqa: E402
 
 #: Issue 15's criteria for the blades: |C_L ratio - 1| and |C_max ratio - 1|.
@@ -110,7 +110,7 @@ def split_variant(items: list[str]) -> tuple[dict, dict]:
     from optimizer.config import SETTING_KEYS
     from solver.turbulence import SST
 
-    values = solver_overrides(items)
+    values = overrides(items)
     sst_keys = {f.name for f in dataclasses.fields(SST)} - {"wall_treatment"}
     solver_keys = set(SETTING_KEYS) | {"model", "wall_treatment", "initial"}
     unknown = sorted(set(values) - sst_keys - solver_keys)

@@ -46,12 +46,12 @@ def iterations_within(history: np.ndarray, tol: float) -> int:
 
 def run_case(raw: dict, overrides: list[str]) -> dict:
     """One evaluation of the blade configuration ``raw`` (a mapping) with ``solver.<key>=value`` overrides."""
-    from bench_robustness import solver_overrides
+    from bench_robustness import overrides as key_values
 
     from optimizer.config import Config
     from optimizer.pipeline import evaluate
 
-    raw = {**raw, "solver": {**raw.get("solver", {}), **solver_overrides(overrides)}}
+    raw = {**raw, "solver": {**raw.get("solver", {}), **key_values(overrides)}}
     c0, t0 = time.process_time(), time.perf_counter()
     ev = evaluate(Config.from_mapping(raw))
     cpu, wall = time.process_time() - c0, time.perf_counter() - t0

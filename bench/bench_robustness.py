@@ -21,11 +21,15 @@ prints the summary of finished record files without evaluating anything.
     python bench/bench_robustness.py --report runs/r0.jsonl runs/r1.jsonl
     python bench/bench_robustness.py --retry runs/r0.jsonl runs/r1.jsonl --max-iter 4000 --out runs/retry.jsonl
     python bench/bench_robustness.py --blades 50 --set alpha_u=0.95 --out runs/alpha095.jsonl   # settings trial
+    python bench/bench_robustness.py --blades 20 --level coarse --mesh-set half_height=1.0 --out runs/channel.jsonl
 
 ``--retry FILE ...`` evaluates again the blades of those records whose status is ``--retry-status``
 (default ``not_converged``), at their level, e.g. with a larger ``--max-iter``. ``--set KEY=VALUE``
 (repeatable) overrides a key of the ``solver:`` section (the value read as JSON where it parses), e.g. to
-sweep the blades with other solver settings before changing a default.
+sweep the blades with other solver settings before changing a default. ``--mesh-set KEY=VALUE`` does the
+same for the ``mesh:`` section: the default domain is open (``half_height`` 5 chords), the campaigns and the
+paper's configs use the confined channel (``half_height: 1.0``; docs/benchmarks.md, "Start-up divergence in
+the channel at coarse").
 """
 
 from __future__ import annotations
@@ -62,16 +66,16 @@ def draw_blades(n: int, seed: int, max_draws: int = 200_000) -> list[tuple[str, 
     return out
 
 
-def evaluate_one(task: tuple[int, str, str, dict, str, int, dict]) -> dict:
+def evaluate_one(task: tuple[int, str, str, dict, str, int, dict, dict]) -> dict:
     """Evaluate one blade; never raises: the outcome is in the record."""
     from optimizer.config import Config
     from optimizer.pipeline import evaluate
 
-    index, mode, cont, params, level, max_iter, solver = task
-    raw = {"blade": {"mode": mode, "continuity": cont, "parameters": params}, "mesh": {"level": level},
+    index, mode, cont, params, level, max_iter, solver, mesh = task
+    raw = {"blade": {"mode": mode, "continuity": cont, "parameters": params}, "mesh": {**mesh, "level": level},
            "solver": {**solver, **({"max_iter": max_iter} if max_iter else {})}}
     record = {"index": index, "mode": mode, "continuity": cont, "parameters": params, "level": level,
-              **({"solver": solver} if solver else {})}
+              **({"solver": solver} if solver else {}), **({"mesh": mesh} if mesh else {})}
     start = time.perf_counter()
     try:
         ev = evaluate(Config.from_mapping(raw))
@@ -133,7 +137,7 @@ def parse_shard(text: str) -> tuple[int, int]:
     return k, n
 
 
-def solver_overrides(items: list[str]) -> dict:
+def overrides(items: list[str]) -> dict:
     """``{key: value}`` of ``KEY=VALUE`` items, each value read as JSON where it parses (else text)."""
     out = {}
     for item in items:
@@ -161,24 +165,26 @@ def main() -> None:
     parser.add_argument("--retry-status", default="not_converged", help="which records --retry takes")
     parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                         help="override a solver: key (repeatable), e.g. alpha_u=0.95")
+    parser.add_argument("--mesh-set", action="append", default=[], metavar="KEY=VALUE",
+                        help="override a mesh: key (repeatable), e.g. half_height=1.0 (the campaigns' channel)")
     args = parser.parse_args()
-    solver = solver_overrides(args.set)
+    solver, mesh = overrides(args.set), overrides(args.mesh_set)
     if args.report:
         report(read_records(args.report))
         return
     k, n = args.shard
     done = {r["index"] for r in read_records([args.out]) if "index" in r}
     if args.retry:
-        tasks = [(r["index"], r["mode"], r["continuity"], r["parameters"], r["level"], args.max_iter, solver)
+        tasks = [(r["index"], r["mode"], r["continuity"], r["parameters"], r["level"], args.max_iter, solver, mesh)
                  for r in read_records(args.retry) if r["status"] == args.retry_status and r["index"] not in done]
     else:
         blades = draw_blades(args.blades, args.seed)
-        tasks = [(i, m, c, p, args.level, args.max_iter, solver) for i, (m, c, p) in enumerate(blades)
+        tasks = [(i, m, c, p, args.level, args.max_iter, solver, mesh) for i, (m, c, p) in enumerate(blades)
                  if i % n == k and i not in done]
     print(f"{platform.node()} {platform.processor() or platform.machine()}, {args.workers} workers, "
           + (f"retrying the {args.retry_status} blades of {len(args.retry)} record files"
              if args.retry else f"level {args.level}, seed {args.seed}, shard {k}/{n}")
-          + (f", solver overrides {solver}" if solver else "")
+          + (f", solver overrides {solver}" if solver else "") + (f", mesh overrides {mesh}" if mesh else "")
           + f": {len(done)} blades already in {args.out}, {len(tasks)} to evaluate")
     args.out.parent.mkdir(parents=True, exist_ok=True)
     with ProcessPoolExecutor(args.workers) as pool, args.out.open("a") as fh:
