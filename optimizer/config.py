@@ -306,7 +306,9 @@ class _SolverBase(_Frozen):
     Keys of the section alone: model: ``sst`` (k-ω SST, the paper's model) or ``laminar``.
     wall_treatment: SST wall treatment, ``automatic`` (wall functions blended with the low-Re
     formulation by y+) or ``low_re`` (resolved to the wall, y+ ~ 1). initial: initial velocity field,
-    ``freestream`` (uniform ``(C0, 0)``, the default) or ``rest`` (zero; diverged at once at Re = 1e6).
+    ``freestream`` (uniform ``(C0, 0)``, the default), ``potential`` (the potential flow around the blade,
+    :func:`solver.potential_start`: fewer start-up divergences in the channel at coarse, docs/benchmarks.md)
+    or ``rest`` (zero; diverged at once at Re = 1e6).
 
     Every other key is a field of :class:`solver.SimpleSettings` (its meaning, unit and default are
     documented there; ``docs/evaluation.md`` lists them): algorithm, alpha_u, alpha_p, convection,
@@ -316,7 +318,7 @@ class _SolverBase(_Frozen):
 
     model: Literal["sst", "laminar"] = "sst"
     wall_treatment: Literal["automatic", "low_re"] = "automatic"
-    initial: Literal["freestream", "rest"] = "freestream"
+    initial: Literal["freestream", "rest", "potential"] = "freestream"
 
     @field_validator("*", mode="before")
     @classmethod

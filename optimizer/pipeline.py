@@ -36,6 +36,7 @@ from solver import (
     build_fvmesh,
     initial_state,
     mapped_state,
+    potential_start,
     solve_steady,
 )
 
@@ -214,6 +215,8 @@ def solve_flow(config: Config, fvmesh: FVMesh, *, log: Log | None = None, every:
     # (the AMG set-up seeds its own random vectors: solver.linalg, so an evaluation is reproducible)
     if warm_start is not None:
         state = mapped_state(problem, warm_start)
+    elif s.initial == "potential":
+        state = potential_start(problem, (config.flow.speed, 0.0))
     else:
         state = initial_state(problem, (config.flow.speed, 0.0) if s.initial == "freestream" else (0.0, 0.0))
     return solve_steady(problem, simple_settings(config), state, callback=progress)

@@ -31,10 +31,10 @@ from .results import FlowResults, Forces
 from .settings import SimpleSettings
 from .simple import solve_steady
 from .turbulence import SST, SSTConstants
-from .warmstart import mapped_state
+from .warmstart import mapped_state, potential_start
 
 __all__ = [
     "BOUNDARY_CONDITIONS", "FVMesh", "FlowResults", "FlowState", "Fluid", "Forces", "LINEAR_SOLVERS", "MeshError",
     "Problem", "SST", "SSTConstants", "SimpleSettings", "SolverSettings", "build_fvmesh", "classify", "from_meshio",
-    "from_msh", "initial_state", "mapped_state", "resolve_boundaries", "solve_steady",
+    "from_msh", "initial_state", "mapped_state", "potential_start", "resolve_boundaries", "solve_steady",
 ]

@@ -43,11 +43,10 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import Fluid, Problem, SimpleSettings, initial_state, solve_steady
-from ..gradient import ls_gradient
+from .. import Fluid, Problem, SimpleSettings, solve_steady
 from ..linalg import SolverSettings
-from ..pressure import correct_flux, pressure_correction_system
 from ..turbulence import SST
+from ..warmstart import potential_start
 from .meshes.naca_mesh import naca0012_cmesh, quality
 from .report import Comparison, ValidationReport
 
@@ -129,31 +128,6 @@ def boundary_conditions(alpha_deg: float, turbulent: bool = True, c_l: float | N
     if turbulent:
         inlet.update(tmr_freestream())
     return {"wall": "wall", "farfield_in": inlet, "farfield_out": {"type": "pressure_outlet", "p": 0.0}}
-
-
-#: Linear solver of the potential-flow projection of :func:`potential_start` (converged tightly: the start
-#: must be divergence free).
-POTENTIAL_SOLVER = SolverSettings("amg", 1e-10, 500)
-
-
-def potential_start(problem: Problem, u_inf, solver: SolverSettings = POTENTIAL_SOLVER):
-    """Initial state: the potential flow around the airfoil (slip at the wall) and its Bernoulli pressure.
-
-    An impulsive start (uniform U∞ through the wall) leaves cells at the leading edge with a net inflow
-    larger than their outflow, so that the SIMPLEC coefficient ``a_P/alpha - sum a_nb`` is negative there
-    at high Re and the first iterations explode (measured on this mesh: Re >= 1e4). One projection of the
-    uniform flow with the solver's own pressure-correction operator (``D̃ = 1``) gives discretely
-    divergence-free fluxes: ``F = F0 - grad_f phi``, ``u = U∞ - grad phi``, ``p = (|U∞|² - |u|²)/2``.
-    """
-    m, b, rho = problem.mesh, problem.bnd, problem.fluid.rho
-    s = initial_state(problem, tuple(u_inf))
-    pc = pressure_correction_system(m, problem.pattern, b, s.flux, np.ones(m.n_cells), rho)
-    phi, _ = solver.solve(pc.system, {})
-    s.flux = correct_flux(m, s.flux, pc.coef, phi)
-    phi_b = np.where(b.p_fixed, 0.0, phi[m.owner[m.n_internal:]])
-    s.u = s.u - ls_gradient(m, phi, phi_b)
-    s.p = 0.5 * rho * (float(np.dot(u_inf, u_inf)) - (s.u**2).sum(axis=1))
-    return s
 
 
 #: Iterations of a run (counted from the potential start, restarts included) in which the momentum

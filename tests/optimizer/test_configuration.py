@@ -91,10 +91,16 @@ def test_flow_section_drives_the_mesh_unless_the_mesh_sets_it():
     ("solver.alpha_u=1.5", "'solver.alpha_u' = 1.5 is outside (0, 1]: an under-relaxation factor"),
     ("solver.max_iter=0", "'solver.max_iter' = 0 is outside [1, 100000]: the blade solves converge in"),
     ("solver.algorithm=piso", "'solver.algorithm' = 'piso' is not allowed; allowed: 'simple' or 'simplec'"),
+    ("solver.initial=potentail", "'solver.initial' = 'potentail' is not allowed; allowed: 'freestream', 'rest' or "
+     "'potential'"),
 ])
 def test_flow_and_solver_sections_are_validated(override, message):
     with pytest.raises(ConfigError, match=re.escape(message)):
         load_config(BENCH, [override])
+
+
+def test_the_potential_start_is_a_choice_of_the_solver_section():
+    assert load_config(BENCH, ["solver.initial=potential"]).solver.initial == "potential"
 
 
 def test_saved_config_reads_back_the_same():
