@@ -78,8 +78,8 @@ class SimpleSettings:
         ``max_iter`` (:func:`solver.monitors.established`); False: run such solves to ``max_iter``.
     divergence_factor: a residual above 1 and this many times its running minimum means divergence.
     velocity_limit: a cell velocity component above this (m/s) means divergence.
-    pressure_gradient: gradient of p in the momentum source: ``"least_squares"`` or ``"green_gauss"``
-        (:data:`solver.simple.PRESSURE_GRADIENTS`).
+    pressure_gradient: gradient of p in the momentum source and in the Rhie–Chow interpolation:
+        ``"least_squares"`` or ``"green_gauss"`` (:data:`solver.simple.PRESSURE_GRADIENTS`).
     blas_threads: BLAS threads while iterating (via threadpoolctl when installed; None: leave as is).
         The per-iteration work is many small vector operations, where BLAS threads only contend
         (measured 5x slower with default OpenBLAS threading on a busy 2-core machine).
