@@ -14,7 +14,10 @@ Every record (blade index, parameters, status, figures, classification) goes to 
 soon as it is done, so that any blade can be re-run on its own (``millfoil evaluate`` with its parameters).
 A sweep that is stopped resumes: blades already in ``--out`` are not evaluated again. ``--shard K/N`` takes
 every N-th blade from K (0-based), for splitting one sweep over processes or machines; ``--report FILE ...``
-prints the summary of finished record files without evaluating anything.
+prints the summary of finished record files without evaluating anything. ``--save-monitors DIR`` writes
+the full per-iteration histories of each solved blade to ``DIR/blade_<index>.npz`` (every monitor of
+``FlowResults.monitors`` as ``monitor:<name>``, every scaled residual as ``residual:<name>``), for
+replaying stop rules offline, e.g. with ``--set early_classify=false`` to the cap.
 
     python bench/bench_robustness.py --blades 50 --level medium --workers 2 --out runs/bench_robustness.jsonl
     python bench/bench_robustness.py --blades 50 --level medium --workers 1 --shard 0/2 --out runs/r0.jsonl
@@ -22,6 +25,7 @@ prints the summary of finished record files without evaluating anything.
     python bench/bench_robustness.py --retry runs/r0.jsonl runs/r1.jsonl --max-iter 4000 --out runs/retry.jsonl
     python bench/bench_robustness.py --blades 50 --set alpha_u=0.95 --out runs/alpha095.jsonl   # settings trial
     python bench/bench_robustness.py --blades 20 --level coarse --mesh-set half_height=1.0 --out runs/channel.jsonl
+    python bench/bench_robustness.py --blades 50 --set early_classify=false --save-monitors runs/hist --out runs/h.jsonl
 
 ``--retry FILE ...`` evaluates again the blades of those records whose status is ``--retry-status``
 (default ``not_converged``), at their level, e.g. with a larger ``--max-iter``. ``--set KEY=VALUE``
@@ -66,12 +70,13 @@ def draw_blades(n: int, seed: int, max_draws: int = 200_000) -> list[tuple[str, 
     return out
 
 
-def evaluate_one(task: tuple[int, str, str, dict, str, int, dict, dict]) -> dict:
-    """Evaluate one blade; never raises: the outcome is in the record."""
+def evaluate_one(task: tuple[int, str, str, dict, str, int, dict, dict, str | None]) -> dict:
+    """Evaluate one blade; never raises: the outcome is in the record. With a save directory (the
+    task's last item), the monitor and residual histories of the solve go to ``blade_<index>.npz`` there."""
     from optimizer.config import Config
     from optimizer.pipeline import evaluate
 
-    index, mode, cont, params, level, max_iter, solver, mesh = task
+    index, mode, cont, params, level, max_iter, solver, mesh, save_dir = task
     raw = {"blade": {"mode": mode, "continuity": cont, "parameters": params}, "mesh": {**mesh, "level": level},
            "solver": {**solver, **({"max_iter": max_iter} if max_iter else {})}}
     record = {"index": index, "mode": mode, "continuity": cont, "parameters": params, "level": level,
@@ -82,7 +87,19 @@ def evaluate_one(task: tuple[int, str, str, dict, str, int, dict, dict]) -> dict
     except Exception as exc:  # noqa: BLE001 - a sweep records every failure, whatever its type
         return {**record, "status": "failed", "stage": "?", "message": f"{type(exc).__name__}: {exc}",
                 "seconds": time.perf_counter() - start}
+    flow = getattr(ev.artifacts, "flow", None)
+    if save_dir and flow is not None:
+        save_histories(Path(save_dir) / f"blade_{index}.npz", flow)
     return {**record, **ev.summary(), "seconds_total": time.perf_counter() - start}
+
+
+def save_histories(path: Path, flow) -> None:
+    """The per-iteration histories of ``flow`` (a :class:`solver.FlowResults`) to the .npz ``path``:
+    ``monitor:<name>`` for each monitor, ``residual:<name>`` for each scaled residual, and ``status``."""
+    arrays = {f"monitor:{k}": np.asarray(v, dtype=float) for k, v in flow.monitors.items()}
+    arrays.update({f"residual:{k}": np.asarray(v, dtype=float) for k, v in flow.residuals.items()})
+    path.parent.mkdir(parents=True, exist_ok=True)
+    np.savez_compressed(path, status=np.asarray(flow.status), **arrays)
 
 
 def _finite(x) -> bool:
@@ -167,19 +184,23 @@ def main() -> None:
                         help="override a solver: key (repeatable), e.g. alpha_u=0.95")
     parser.add_argument("--mesh-set", action="append", default=[], metavar="KEY=VALUE",
                         help="override a mesh: key (repeatable), e.g. half_height=1.0 (the campaigns' channel)")
+    parser.add_argument("--save-monitors", type=Path, metavar="DIR",
+                        help="write each blade's monitor and residual histories to DIR/blade_<index>.npz")
     args = parser.parse_args()
     solver, mesh = overrides(args.set), overrides(args.mesh_set)
     if args.report:
         report(read_records(args.report))
         return
     k, n = args.shard
+    save = None if args.save_monitors is None else str(args.save_monitors)
     done = {r["index"] for r in read_records([args.out]) if "index" in r}
     if args.retry:
-        tasks = [(r["index"], r["mode"], r["continuity"], r["parameters"], r["level"], args.max_iter, solver, mesh)
+        tasks = [(r["index"], r["mode"], r["continuity"], r["parameters"], r["level"], args.max_iter, solver, mesh,
+                  save)
                  for r in read_records(args.retry) if r["status"] == args.retry_status and r["index"] not in done]
     else:
         blades = draw_blades(args.blades, args.seed)
-        tasks = [(i, m, c, p, args.level, args.max_iter, solver, mesh) for i, (m, c, p) in enumerate(blades)
+        tasks = [(i, m, c, p, args.level, args.max_iter, solver, mesh, save) for i, (m, c, p) in enumerate(blades)
                  if i % n == k and i not in done]
     print(f"{platform.node()} {platform.processor() or platform.machine()}, {args.workers} workers, "
           + (f"retrying the {args.retry_status} blades of {len(args.retry)} record files"
