@@ -265,3 +265,28 @@ def test_domain_too_narrow_for_the_o_layer_raises():
     profile = build_profile(BladeSpec.from_values("design", "G1", BENCH_G1_DESIGN))
     with pytest.raises(MeshingError, match="does not contain the O-layer"):
         build_mesh(profile, MeshSpec.for_level("coarse", half_height=0.2))
+
+
+def test_small_leading_edge_radius_keeps_the_trailing_edge_resolved():
+    """A tool-path blade whose leading-edge radius (~0.2 mm) asks for more than the coarse level's 80 wall
+    nodes by itself (bench sweep, random blade 17): the largest spacing, and with it the corner spacing,
+    used to go to its bisection bound, leaving the 4 mm blunt trailing edge one face wide (the solve then
+    diverged from the free stream within 6 iterations). The cap keeps the corners refined."""
+    from meshing.hybrid import MAX_SPACING_RATIO, resample_wall
+
+    values = {"L": 0.1, "alpha": -3.4080443890744947, "beta1": -5.528279231195464, "beta1bar": 4.241415410124693,
+              "u_s2": 0.07934284503700965, "d_s1": 0.010817313870633623, "d_s2": 0.009609143599030303,
+              "d_s3": 0.031140582360566573, "d_s4": 0.002, "u_p2": 0.10499310014391451,
+              "d_p2": 0.011404291734741525, "d_p3": 0.03003746312494445, "d_p4": 0.002, "R": 0.005}
+    profile = build_profile(BladeSpec.from_values("toolpath", "C1", values))
+    nodes, _ = resample_wall(profile, COARSE)
+    closed = np.vstack([nodes, nodes[:1]])
+    h = np.linalg.norm(np.diff(closed, axis=0), axis=1)
+    perimeter = h.sum()
+    te = profile.points[[profile.te_index, 0]]
+    on_te = np.array([np.linalg.norm(np.cross(te[1] - te[0], p - te[0])) / np.linalg.norm(te[1] - te[0]) < 1e-9
+                      and np.dot(p - te[0], te[1] - te[0]) > 1e-12
+                      and np.dot(p - te[1], te[0] - te[1]) > 1e-12 for p in nodes])
+    assert on_te.sum() >= 2                                  # 3 faces or more (it was 1)
+    assert len(nodes) > COARSE.wall_nodes                    # the curvature takes more than the budget
+    assert h.max() <= 1.01 * MAX_SPACING_RATIO * perimeter / COARSE.wall_nodes
