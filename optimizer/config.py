@@ -253,6 +253,8 @@ SETTING_RULES: dict[str, dict[str, Any]] = {
     "algorithm": {"choices": ("simple", "simplec")},
     "alpha_u": {"gt": 0, "le": 1, "why": "an under-relaxation factor"},
     "alpha_p": {"gt": 0, "le": 1, "why": "an under-relaxation factor"},
+    "startup_iterations": {"ge": 0, "le": 100_000, "why": "iterations at the start-up relaxation; 0: off"},
+    "startup_alpha_u": {"gt": 0, "le": 1, "why": "an under-relaxation factor"},
     "convection": {"choices": ("linear_upwind", "upwind")},
     "limiter": {"choices": ("venkatakrishnan", "venkatakrishnan_wang", "barth_jespersen", "none")},
     "limiter_k": {"gt": 0, "le": 1000, "why": "the limiter's K: 0.3-10 in practice for venkatakrishnan, 10-80 for "
@@ -311,7 +313,8 @@ class _SolverBase(_Frozen):
     or ``rest`` (zero; diverged at once at Re = 1e6).
 
     Every other key is a field of :class:`solver.SimpleSettings` (its meaning, unit and default are
-    documented there; ``docs/evaluation.md`` lists them): algorithm, alpha_u, alpha_p, convection,
+    documented there; ``docs/evaluation.md`` lists them): algorithm, alpha_u, alpha_p, startup_iterations,
+    startup_alpha_u, convection,
     limiter, limiter_k, max_iter, tol, monitor_tol, monitor_window, classify_window, classify_tol,
     stall_tol, pressure_gradient, divergence_factor, velocity_limit.
     """

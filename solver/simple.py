@@ -21,6 +21,7 @@ until ``max_iter``; non-finite or exploding values stop the loop with status ``d
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import time
 from collections.abc import Callable
 
@@ -206,13 +207,16 @@ def _iterate(problem: Problem, settings: SimpleSettings, state: FlowState | None
     solver_state: dict = {}
     status, message = "not_converged", f"reached max_iter = {settings.max_iter}"
     classification = None
+    # the impulsive start's first iterations, gentler (SimpleSettings.startup_iterations)
+    startup = dataclasses.replace(settings, alpha_u=min(settings.alpha_u, settings.startup_alpha_u))
     it = 0
     for it in range(1, settings.max_iter + 1):
         last_good = s.copy()
         solver_state["iteration"] = it
         try:
             with np.errstate(all="ignore"):
-                res = outer_iteration(problem, s, settings, solver_state)
+                res = outer_iteration(problem, s, startup if it <= settings.startup_iterations else settings,
+                                      solver_state)
         except (DivergenceError, ValueError, np.linalg.LinAlgError) as exc:
             status, message = "diverged", f"diverged at iteration {it}: {exc}"
             s = last_good

@@ -52,7 +52,7 @@ BOUNDARY_CONDITIONS = {"inlet": {"type": "velocity_inlet", "profile": inlet_prof
 def cylinder_settings(**overrides) -> SimpleSettings:
     """Solver settings for DFG 2D-1 (SIMPLEC, ``alpha_p`` = 1; forces on the cylinder monitored for
     convergence)."""
-    base = dict(algorithm="simplec", alpha_p=1.0, stall_tol=None,
+    base = dict(algorithm="simplec", startup_iterations=0, alpha_p=1.0, stall_tol=None,
                 alpha_u=0.9, max_iter=3000, tol=1e-6, monitor_tol=1e-5, monitor_groups=("cylinder",),
                 momentum_solver=SolverSettings("gauss_seidel", 0.1, 16))
     base.update(overrides)

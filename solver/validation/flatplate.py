@@ -116,7 +116,7 @@ def boundary_conditions(intensity: float = TMR_FREESTREAM["intensity"],
 
 def flatplate_settings(**overrides) -> SimpleSettings:
     """Solver settings for the flat plate (SIMPLEC, ``alpha_p`` = 1; plate drag monitored for convergence)."""
-    base = dict(algorithm="simplec", alpha_p=1.0, stall_tol=None,
+    base = dict(algorithm="simplec", startup_iterations=0, alpha_p=1.0, stall_tol=None,
                 alpha_u=0.85, max_iter=4000, tol=1e-5, monitor_tol=1e-4, monitor_window=50,
                 monitor_groups=("plate",), momentum_solver=SolverSettings("gauss_seidel", 0.1, 8),
                 pressure_solver=SolverSettings("direct"))

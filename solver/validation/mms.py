@@ -94,7 +94,7 @@ def run_level(refinements: int, mu: float = 0.1, rho: float = 1.0, kind: str = "
     mesh = mms_mesh(refinements, kind)
     bc = {g: "wall" for g in mesh.group_names}
     problem = Problem.create(mesh, bc, Fluid(rho, mu), body_force(mesh.centroid, rho, mu))
-    settings = SimpleSettings(algorithm="simplec", alpha_p=1.0, stall_tol=None,
+    settings = SimpleSettings(algorithm="simplec", startup_iterations=0, alpha_p=1.0, stall_tol=None,
                               alpha_u=0.9, tol=1e-9, max_iter=4000, monitor_tol=1e-9, limiter="none",
                               pressure_solver=SolverSettings("amg", 1e-3, 100))
     res = solve_steady(problem, settings)
