@@ -130,9 +130,12 @@ def established(monitors: dict, it: int, cfg: SimpleSettings):
     """``(status, message, classification)`` of a solve whose monitors will not settle by ``max_iter``, or
     None.
 
-    From ``3 classify_window`` iterations on (checked every 50), the last ``classify_window`` iterations
-    and the ``classify_window`` before them are classified (:func:`solver.convergence.classify`). The solve
-    stops with the last window's class and figures — what it would get at ``max_iter`` — when both
+    Two consecutive windows of ``w`` iterations — the last ``w`` and the ``w`` before them — are classified
+    (:func:`solver.convergence.classify`) from ``3 w`` iterations on (the first window is the start-up,
+    skipped), checked every 25 iterations. ``w`` is :func:`early_window`: ``early_periods`` times the
+    longest period found over the last ``classify_window`` iterations, between ``classify_window / 2`` and
+    ``classify_window`` (``classify_window`` when no period is found or ``early_periods`` is None). The
+    solve stops with the last window's class and figures — what it would get at ``max_iter`` — when both
     windows agree and, in every monitor that is not stationary, the behaviour is established and its
     decay from one window to the next, extrapolated to ``max_iter``, still leaves it above ``classify_tol``:
 
@@ -148,12 +151,21 @@ def established(monitors: dict, it: int, cfg: SimpleSettings):
     So a drift that would settle before the cap, or an oscillation whose mean still moves and whose
     amplitude decays, runs on. Measured (random blade 0 of ``bench/bench_robustness.py`` at medium): an
     oscillation of 1e-3 relative amplitude with a settled mean ran to the 2 000-iteration cap under the
-    decay test alone (4.4x the iterations of a converged blade); it now stops at 600. Off when
-    ``early_classify`` is False."""
-    w = cfg.classify_window
-    if not cfg.early_classify or it < 3 * w or it % 50:
+    decay test alone (4.4x the iterations of a converged blade); it stopped at 600 with the fixed window.
+    The window scaled to the period (session 6, docs/performance.md "Unsettled blades (session 6)"): the
+    24 oscillating blades of that sweep stop after 637.5 iterations by the median instead of 725 (1.96x
+    the converged median, was 2.23x), every class and every converged blade unchanged, the window means
+    of F_Y and C_max within ``max(classify_tol |mean|, amplitude / 2)`` of those at the cap. The margin is
+    thin: with windows of 6 or 7 periods, random blade 20 (converged at 1 250, its lift ringing at period 15
+    with the amplitude halving every 100 iterations) stops early as oscillating by its settled mean. Off
+    when ``early_classify`` is False."""
+    w_cap = cfg.classify_window
+    if not cfg.early_classify or it % 25 or it < 3 * min_early_window(cfg):
         return None
     arrays = {k: np.asarray(v) for k, v in monitors.items()}
+    w = early_window(arrays, cfg)
+    if it < 3 * w:
+        return None
     now = classify(arrays, window=w, tol=cfg.classify_tol)
     if now.status not in ("oscillating", "not_converged"):
         return None
@@ -166,7 +178,31 @@ def established(monitors: dict, it: int, cfg: SimpleSettings):
                                                                    cfg.classify_tol):
             return None
     head = f"stopped at iteration {it}: {now.status} established over {2 * w} iterations"
+    if w != w_cap:
+        head += f" (two windows of {w}: {cfg.early_periods:g} periods)"
     return now.status, f"{head}; {now.reason}", now
+
+
+def min_early_window(cfg: SimpleSettings) -> int:
+    """The shortest window :func:`early_window` can give: ``classify_window / 2`` when the window follows
+    the period (``early_periods`` set), else ``classify_window``."""
+    return cfg.classify_window if cfg.early_periods is None else max(cfg.classify_window // 2, 2)
+
+
+def early_window(arrays: dict, cfg: SimpleSettings) -> int:
+    """The window (iterations) of :func:`established`: ``early_periods`` times the longest period of the
+    monitors over the last ``classify_window`` iterations, rounded down and clamped to
+    ``[classify_window / 2, classify_window]``; ``classify_window`` when no monitor has a period (noise, a
+    drift) or ``early_periods`` is None. The longest period, so that every monitor's window holds at least
+    ``early_periods`` of its cycles; eight cycles give a period within 20 % and a whole-period mean."""
+    w = cfg.classify_window
+    if cfg.early_periods is None:
+        return w
+    probe = classify(arrays, window=w, tol=cfg.classify_tol)
+    periods = [p for p in probe.period.values() if p is not None]
+    if not periods:
+        return w
+    return int(min(max(cfg.early_periods * max(periods), min_early_window(cfg)), w))
 
 
 def _persists(now, before, name: str, verdict: str, windows_left: float, tol: float) -> bool:

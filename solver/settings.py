@@ -81,8 +81,17 @@ class SimpleSettings:
         the lift) and is then within a few 1e-3 of its converged value. The classification and the
         ``tol`` test still use every monitor.
     early_classify: stop a solve whose oscillation or drift is established over two classification
-        windows (from ``3 classify_window`` iterations on) with the class and figures it would get at
+        windows (from 3 windows on, checked every 25 iterations) with the class and figures it would get at
         ``max_iter`` (:func:`solver.monitors.established`); False: run such solves to ``max_iter``.
+    early_periods: the two windows of that early stop span this many periods of the oscillation (the
+        longest of the monitors' periods over the last ``classify_window`` iterations), between
+        ``classify_window / 2`` and ``classify_window`` iterations, so that a short-period oscillation is
+        recognised from ``3 x`` that window on rather than from ``3 classify_window``
+        (:func:`solver.monitors.early_window`). Default 8: the 24 oscillating blades of
+        ``bench/bench_robustness.py`` at medium stop after 637.5 iterations by the median instead of 725
+        (1.96x the converged median), with the same classes and window means within half an amplitude of
+        those at the cap; 6 stopped a converged blade (random blade 20) early as oscillating
+        (docs/performance.md, "Unsettled blades (session 6)"). None: windows of ``classify_window``.
     divergence_factor: a residual above 1 and this many times its running minimum means divergence.
     velocity_limit: a cell velocity component above this (m/s) means divergence.
     pressure_gradient: gradient of p in the momentum source and in the Rhie–Chow interpolation:
@@ -116,6 +125,7 @@ class SimpleSettings:
     stop_tol: float = 1e-3
     stop_monitors: tuple[str, ...] = ()
     early_classify: bool = True
+    early_periods: float | None = 8.0
     pressure_gradient: str = "least_squares"
     blas_threads: int | None = 1
     divergence_factor: float = 1e5
