@@ -162,8 +162,11 @@ def test_non_finite_figures_become_none_with_a_reason(monkeypatch):
     from solver import FlowResults
 
     monkeypatch.setattr(FlowResults, "c_max", property(lambda self: float("nan")))
+    # without the start-up relaxation these 30 iterations drift (not_converged: figures from the fields, the
+    # path under test); with it they ring, and an oscillating solve reports its monitors' window means
     ev = evaluate(load_config(BENCH, [*(o for o in LAMINAR if not o.startswith("solver.max_iter=")),
-                                      "solver.max_iter=30"]))
+                                      "solver.max_iter=30", "solver.startup_iterations=0"]))
+    assert ev.status == "not_converged"
     assert ev.ok and ev.c_max is None and ev.cp_min is None
     assert ev.missing["c_max"] == "not finite" and ev.missing["cp_min"] == "not finite"
     assert all(v is None or math.isfinite(v) for v in ev.summary().values() if isinstance(v, float))
