@@ -120,16 +120,30 @@ def wall_record(mesh, cp: np.ndarray, tau: np.ndarray) -> dict:
             "x_sep": separation_point(xc[:, 0], xc[:, 1], cf)}
 
 
+def wall_force_parts(mesh, wall: dict, alpha_deg: float) -> dict:
+    """C_D and C_L split into pressure and viscous parts from a :func:`wall_record` (per face:
+    ``C_p S_f`` and ``c_f |S_f| t``, S_f outward from the fluid); with OpenFOAM's wall-cell pressure these
+    add up to its ``forceCoeffs`` C_D and C_L."""
+    f = mesh.boundary["wall"]
+    d = np.asarray(freestream(alpha_deg), dtype=float)
+    e_l = np.array([-d[1], d[0]])
+    cp, cf = np.asarray(wall["cp"]), np.asarray(wall["cf"])
+    s, t = mesh.sf[f], wall_tangent(mesh) * mesh.length[f][:, None]
+    return {"c_d_pressure": float(cp @ (s @ d)), "c_d_viscous": float(cf @ (t @ d)),
+            "c_l_pressure": float(cp @ (s @ e_l)), "c_l_viscous": float(cf @ (t @ e_l))}
+
+
 # ---------------------------------------------------------------------------------------------- OpenFOAM
-def fv_schemes(u_gradient: str = "Gauss linear") -> str:
+def fv_schemes(u_gradient: str = "Gauss linear", gradient: str = "Gauss linear") -> str:
     """Linear-upwind U on the gradient ``u_gradient`` (``--u-gradient``), first-order upwind k and omega
-    (millfoil's SST default), Gauss linear gradients elsewhere, corrected Laplacians. OpenFOAM's
+    (millfoil's SST default), ``gradient`` (``--gradient``: the ``gradSchemes`` default, i.e. grad(U) of the
+    stresses and production, grad(p), grad(k), grad(omega)) elsewhere, corrected Laplacians. OpenFOAM's
     ``leastSquares`` gradient (millfoil's kind) made every run on this mesh diverge within 30 iterations
     (from a uniform or the potential start), so the gradients are Green-Gauss (docs/validation.md)."""
     return """ddtSchemes { default steadyState; }
 gradSchemes
 {
-    default Gauss linear;
+    default DEFAULT;
     gradU GRADIENT;
 }
 divSchemes
@@ -144,7 +158,7 @@ laplacianSchemes { default Gauss linear corrected; }
 interpolationSchemes { default linear; }
 snGradSchemes { default corrected; }
 wallDist { method meshWave; correctWalls true; }
-""".replace("GRADIENT", u_gradient)
+""".replace("GRADIENT", u_gradient).replace("DEFAULT", gradient)
 
 
 def fv_solution(alpha_u: float, alpha_turb: float) -> str:
@@ -201,7 +215,8 @@ def control_dict(alpha_deg: float, iterations: int) -> str:
 
 
 def write_openfoam_case(directory: Path, mesh, alpha_deg: float, iterations: int, reynolds: float = REYNOLDS,
-                        alpha_u: float = 0.9, alpha_turb: float = 0.8, u_gradient: str = "Gauss linear") -> None:
+                        alpha_u: float = 0.9, alpha_turb: float = 0.8, u_gradient: str = "Gauss linear",
+                        gradient: str = "Gauss linear") -> None:
     """The whole simpleFoam case of the NACA 0012 at ``alpha_deg`` on ``mesh`` (conditions: module docstring)."""
     nu, k, omega = freestream_turbulence(reynolds)
     beta1 = SSTConstants().beta1
@@ -212,7 +227,7 @@ def write_openfoam_case(directory: Path, mesh, alpha_deg: float, iterations: int
     write_file(directory, "constant/turbulenceProperties", "dictionary",
                "simulationType RAS;\nRAS\n{\n    RASModel kOmegaSST;\n    turbulence on;\n    printCoeffs on;\n}\n")
     write_file(directory, "system/controlDict", "dictionary", control_dict(alpha_deg, iterations))
-    write_file(directory, "system/fvSchemes", "dictionary", fv_schemes(u_gradient))
+    write_file(directory, "system/fvSchemes", "dictionary", fv_schemes(u_gradient, gradient))
     write_file(directory, "system/fvSolution", "dictionary", fv_solution(alpha_u, alpha_turb))
     fields = {
         "U": ("volVectorField", "[0 1 -1 0 0 0 0]", u, {
@@ -244,16 +259,19 @@ def check_mesh(directory: Path) -> dict:
 
 
 def run_openfoam(directory: Path, level: str, alpha_deg: float, iterations: int,
-                 u_gradient: str = "Gauss linear", alpha_u: float = 0.9) -> dict:
+                 u_gradient: str = "Gauss linear", alpha_u: float = 0.9, gradient: str = "Gauss linear") -> dict:
     """Write, check and run one OpenFOAM case; the record of :func:`openfoam_record`."""
     cm = naca0012_cmesh(level, alpha_deg=alpha_deg)
     shutil.rmtree(directory, ignore_errors=True)
-    write_openfoam_case(directory, cm.mesh, alpha_deg, iterations, alpha_u=alpha_u, u_gradient=u_gradient)
+    write_openfoam_case(directory, cm.mesh, alpha_deg, iterations, alpha_u=alpha_u, u_gradient=u_gradient,
+                        gradient=gradient)
     mesh_check = check_mesh(directory)
     rc, wall = run_utility(directory, "simpleFoam")
     rec = openfoam_record(directory, cm.mesh)
+    if "wall" in rec:
+        rec.update(wall_force_parts(cm.mesh, rec["wall"], alpha_deg))
     rec.update(mesh_check=mesh_check["summary"], exit_status=rc, seconds=round(wall, 1), u_gradient=u_gradient,
-               alpha_u=alpha_u)
+               alpha_u=alpha_u, gradient=gradient)
     return rec
 
 
@@ -517,6 +535,10 @@ def main(argv=None) -> None:
     parser.add_argument("--of-iterations", type=int, default=8000, help="simpleFoam iteration cap")
     parser.add_argument("--u-gradient", default="Gauss linear", help="OpenFOAM gradient of linearUpwind U "
                         "(e.g. 'cellLimited<Venkatakrishnan> Gauss linear 1')")
+    parser.add_argument("--gradient", default="Gauss linear", help="OpenFOAM gradSchemes default: every other "
+                        "gradient (e.g. 'pointCellsLeastSquares', 'Gauss pointLinear', 'cellMDLimited Gauss linear 1')")
+    parser.add_argument("--of-code", default="openfoam", help="code name of the OpenFOAM records (experiments: "
+                        "e.g. openfoam[gradient=leastSquares]; the report's table compares millfoil with 'openfoam')")
     parser.add_argument("--of-alpha-u", type=float, default=0.9, help="simpleFoam U relaxation (SIMPLEC)")
     parser.add_argument("--mf-iterations", type=int, default=6000, help="millfoil iteration cap")
     parser.add_argument("--mf-variant", nargs="*", default=[], metavar="KEY=VALUE",
@@ -545,7 +567,8 @@ def main(argv=None) -> None:
                 if code == "openfoam":
                     rec = {"error": why} if why else run_openfoam(case / "openfoam", level, alpha,
                                                                       args.of_iterations, args.u_gradient,
-                                                                      args.of_alpha_u)
+                                                                      args.of_alpha_u, args.gradient)
+                    code = args.of_code
                 else:
                     variant = dict(kv.split("=", 1) for kv in args.mf_variant)
                     from_of = args.mf_start == "openfoam"

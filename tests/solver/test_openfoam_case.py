@@ -113,3 +113,28 @@ def test_read_face_flux_maps_faces_and_signs(tmp_path):
     assert np.allclose(read_face_flux(tmp_path / "1/phi", m, rho=2.0), flux, rtol=1e-14, atol=1e-12)
     # owner < neighbour in OpenFOAM's numbering: the faces whose sign flips are exactly the swapped ones
     assert np.array_equal(sign[:ni] < 0, m.owner[faces[:ni]] > m.neighbour[faces[:ni]])
+
+
+def test_naca_fv_schemes_gradient_options():
+    """bench_naca_openfoam's fvSchemes: ``--u-gradient`` sets only the linear-upwind U gradient, ``--gradient``
+    the default of every other gradient; the defaults are the results table's (Gauss linear for both)."""
+    from bench_naca_openfoam import fv_schemes
+
+    plain = fv_schemes()
+    assert "default Gauss linear;" in plain and "gradU Gauss linear;" in plain
+    text = fv_schemes("cellLimited Gauss linear 1", "pointCellsLeastSquares")
+    assert "default pointCellsLeastSquares;" in text and "gradU cellLimited Gauss linear 1;" in text
+    assert "div(phi,U) bounded Gauss linearUpwind gradU;" in text
+
+
+def test_wall_force_parts_add_up_to_the_wall_force():
+    """The pressure and viscous parts of C_D and C_L from a wall record: a uniform C_p on a closed wall gives
+    no force; a uniform c_f gives a viscous drag of about 2 c_f (both surfaces, chord 1) at alpha = 0."""
+    from bench_naca_openfoam import wall_force_parts
+
+    mesh = _mesh()
+    nw = len(mesh.boundary["wall"])
+    parts = wall_force_parts(mesh, {"cp": np.ones(nw), "cf": np.zeros(nw)}, 0.0)
+    assert abs(parts["c_d_pressure"]) < 1e-12 and abs(parts["c_l_pressure"]) < 1e-12
+    parts = wall_force_parts(mesh, {"cp": np.zeros(nw), "cf": np.full(nw, 1e-3)}, 0.0)
+    assert abs(parts["c_d_viscous"] - 2e-3) < 1e-4 and abs(parts["c_l_viscous"]) < 1e-6
