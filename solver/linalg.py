@@ -203,6 +203,33 @@ def _gauss_seidel(system: LinearSystem, tol: float = 0.1, maxiter: int = 3, stat
     return x, LinearSolverStats(maxiter, np.nan)
 
 
+def _gauss_seidel_to_tol(system: LinearSystem, tol: float = 0.1, maxiter: int = 8, state: dict | None = None):
+    """Symmetric Gauss–Seidel sweeps (:func:`solver.kernels.gauss_seidel_sweeps`, as :func:`_gauss_seidel`)
+    until the residual's 1-norm is at most ``tol`` times the initial one, at most ``maxiter`` sweeps; none
+    when the initial residual is 0 — OpenFOAM's ``smoothSolver`` with ``relTol`` ``tol`` and ``nSweeps 1``,
+    the k and omega solver of ``bench/bench_openfoam.py``'s simpleFoam case. The stats give the sweeps done
+    and the final ratio.
+
+    Why: the k and omega systems of a blade evaluation reach ``tol`` = 0.1 after 1.6-2.9 sweeps on average
+    (random blades 0 and 1 and the benchmark blade, coarse and medium), where :func:`_gauss_seidel` always
+    does its ``maxiter`` (8), a tenth of an outer iteration at coarse (docs/performance.md, session 7)."""
+    from .kernels import csr_residual, gauss_seidel_sweeps
+
+    x = np.array(system.x0, dtype=float)
+    b = np.ascontiguousarray(system.b, dtype=float)
+    arrays = system.csr_arrays()
+    r0 = np.abs(csr_residual(*arrays, x, b)).sum()
+    if r0 == 0.0:
+        return x, LinearSolverStats(0, 0.0)
+    split = system.split()
+    sweeps, ratio = 0, 1.0
+    while sweeps < maxiter and ratio > tol:
+        gauss_seidel_sweeps(*split, x, b, 1)
+        sweeps += 1
+        ratio = np.abs(csr_residual(*arrays, x, b)).sum() / r0
+    return x, LinearSolverStats(sweeps, float(ratio))
+
+
 #: AMG hierarchies by name (pyamg): ``f(A) -> multilevel solver``, the preconditioner of :func:`_amg_cg`.
 AMG_HIERARCHIES: dict[str, Callable] = {
     "ruge_stuben": lambda A: _with_fast_smoothers(_pyamg().ruge_stuben_solver(A, max_coarse=50)),
@@ -396,6 +423,7 @@ def _direct(system: LinearSystem, tol: float = 0.0, maxiter: int = 0, state: dic
 #: Linear solvers by name: ``f(system, tol, maxiter, state) -> (x, LinearSolverStats)``.
 LINEAR_SOLVERS: dict[str, Callable] = {
     "gauss_seidel": _gauss_seidel,
+    "gauss_seidel_to_tol": _gauss_seidel_to_tol,
     "amg": _amg_cg,
     "direct": _direct,
 }

@@ -99,3 +99,31 @@ def test_amg_cg_refresh_after_reuses_the_first_set_up_as_built(mesh):
     for k, system in enumerate(systems):
         _amg_cg(system, 1e-8, 100, state, rebuild_every=1000, galerkin=True, rebuild_above=0, refresh_after=2)
         np.testing.assert_array_equal(state["precondition"].levels[0].data, systems[0 if k < 2 else 2].A.data)
+
+
+@pytest.mark.parametrize("tol", [0.5, 0.1, 1e-3])
+def test_gauss_seidel_to_tol_stops_at_the_first_sweep_below_tol(tol):
+    """``gauss_seidel_to_tol`` does the fewest symmetric sweeps that bring the residual's 1-norm to ``tol``
+    times the initial one (bitwise ``gauss_seidel`` with that many sweeps), at most ``maxiter``; none from
+    an exact solution."""
+    from solver.linalg import FVPattern, LinearSystem, SolverSettings
+    from solver.validation.meshes import square_mesh
+
+    mesh = square_mesh(8, triangles="checker", strength=0.4, distort=0.3, seed=5, size=2.0)
+    rng = np.random.default_rng(4)
+    pattern = FVPattern.from_mesh(mesh)
+    ni, nc = mesh.n_internal, mesh.n_cells
+    A = pattern.matrix(4.0 + rng.uniform(0, 1, nc), -rng.uniform(0.1, 1.0, ni), -rng.uniform(0.1, 1.0, ni))
+    system = LinearSystem(A, rng.standard_normal(nc), rng.standard_normal(nc), pattern)
+    x, stats = SolverSettings("gauss_seidel_to_tol", tol, 50).solve(system)
+    r0 = np.abs(system.residual()).sum()
+    assert np.abs(system.residual(x)).sum() <= tol * r0 and stats.iterations >= 1
+    np.testing.assert_array_equal(x, SolverSettings("gauss_seidel", tol, stats.iterations).solve(system)[0])
+    if stats.iterations > 1:
+        fewer = SolverSettings("gauss_seidel", tol, stats.iterations - 1).solve(system)[0]
+        assert np.abs(system.residual(fewer)).sum() > tol * r0
+    capped, capped_stats = SolverSettings("gauss_seidel_to_tol", 1e-30, 3).solve(system)
+    assert capped_stats.iterations == 3
+    np.testing.assert_array_equal(capped, SolverSettings("gauss_seidel", 0.1, 3).solve(system)[0])
+    exact = LinearSystem(A, A @ x, x.copy(), pattern)
+    assert SolverSettings("gauss_seidel_to_tol", tol, 8).solve(exact)[1].iterations in (0, 1)
