@@ -14,12 +14,14 @@ correction too), with the TMR freestream turbulence (k = 9e-9 a², omega = 1e-6 
 from the CFL3D file header: intensity 5.16e-4, nu_t/nu = 0.009); ``farfield_out`` pressure outlet p = 0.
 Start: potential flow (:func:`potential_start`); SIMPLE, alpha_u 0.7, alpha_p 0.3 (:func:`naca_settings`).
 ``near_stall=True`` runs the case with the near-stall settings of issue 15 (:data:`NEAR_STALL_SETTINGS`,
-:data:`NEAR_STALL_SST`), not the default. Session 4 measured them within 1 % of OpenFOAM's lift up to C_L,max
-on the coarse mesh, but at alpha = 10 deg on the fine mesh a mode grew (C_D +11.8 % of CFL3D's). That mode was
-Rhie-Chow interpolating the least-squares pressure gradient while the momentum source used Green-Gauss's; with
-one gradient (session 6) fine 10 deg converges (C_L -0.94 %, C_D -1.92 %), but the coarse lift at 16 deg is
-+2.04 % of OpenFOAM's and the coarse drag at 10 deg -10.6 % of CFL3D's (tolerance 8 %): docs/validation.md,
-"The Green-Gauss pressure gradient on the fine mesh (session 6)".
+:data:`NEAR_STALL_SST`), not the default: the weak Venkatakrishnan-Wang limiter (k = 20) throughout, the
+Green-Gauss pressure gradient (in the momentum source and Rhie-Chow alike), OpenFOAM's limited omega production
+and the two-point wall omega flux. Against OpenFOAM's ``kOmegaSST`` on the same C-meshes (sessions 6-7) they
+put C_L,max at OpenFOAM's angle (coarse 16 deg, medium 17 deg) with OpenFOAM's coarse-to-medium trend, and the
+lift within 1 % from 13 to 17 deg (coarse) and at 12 and 14-17 deg (medium), but +1.1 to +1.2 % at 10-12 deg
+(coarse); against CFL3D at 10 deg: coarse C_L -1.18 %, C_D -7.6 %, fine -0.96 % / -1.83 %
+(docs/validation.md, "Drag on the same mesh, and the medium sweep (session 7)"). The default keeps the
+case's TMR figures and loses lift near stall on the coarse mesh (-7 % at 16 deg).
 
 Compared with CFL3D SST on the 897x257 grid (``solver/validation/reference/tmr_naca0012_cfl3d_sst_*.csv``, copied
 from the TMR files): C_L, C_D at α = 0° and 10° (issue tolerances: α = 0: |C_L| <= 0.005, C_D within 8 %;
@@ -134,15 +136,17 @@ def boundary_conditions(alpha_deg: float, turbulent: bool = True, c_l: float | N
 
 
 #: Iterations of a run (counted from the potential start, restarts included) in which the momentum
-#: linear-upwind gradient is limited (Venkatakrishnan, K = 5) in the near-stall settings; after them it is
+#: linear-upwind gradient is limited in session 3-4's near-stall variant (``naca_settings(near_stall=True,
+#: limiter="venkatakrishnan", limiter_k=5, limiter_iterations=LIMITER_ITERATIONS)``); after them it is
 #: unlimited, OpenFOAM's ``linearUpwind``. Unlimited from the start, the potential flow's slip velocity at the
-#: no-slip wall diverges within 4 iterations; limited throughout, the limiter clips the young boundary layer
-#: near the leading edge and costs lift near stall (docs/validation.md, "Findings (session 3)").
+#: no-slip wall diverges within 4 iterations (docs/validation.md, "Findings (session 3)").
 LIMITER_ITERATIONS = 500
 
-#: The near-stall solver settings (issue 15): the limited start-up, then the unlimited momentum gradient, and
-#: the Green-Gauss pressure gradient of the momentum source (OpenFOAM's ``Gauss linear``).
-NEAR_STALL_SETTINGS = {"limiter_iterations": LIMITER_ITERATIONS, "pressure_gradient": "green_gauss"}
+#: The near-stall solver settings (issue 15): the Venkatakrishnan-Wang limiter with k = 20 throughout (it spares
+#: the young leading-edge boundary layer that K = 5 Venkatakrishnan clips; k = 40 left coarse 10 deg's C_D at
+#: -9.9 % of CFL3D, outside its 8 %) and the Green-Gauss pressure gradient (OpenFOAM's ``Gauss linear``),
+#: which Rhie-Chow uses too (docs/validation.md, sessions 5-7).
+NEAR_STALL_SETTINGS = {"limiter": "venkatakrishnan_wang", "limiter_k": 20.0, "pressure_gradient": "green_gauss"}
 #: The near-stall SST options: OpenFOAM's (and Menter 2003's) limited omega production and the two-point omega
 #: flux next to the wall cells.
 NEAR_STALL_SST = {"omega_production": "limited", "omega_wall_flux": "two_point"}
@@ -150,10 +154,7 @@ NEAR_STALL_SST = {"omega_production": "limited", "omega_wall_flux": "two_point"}
 
 def naca_turbulence(near_stall: bool = False) -> SST:
     """The case's k-omega SST: SST-2003 with the ``low_re`` wall treatment; ``near_stall``: with
-    :data:`NEAR_STALL_SST`. With those and :data:`NEAR_STALL_SETTINGS` the coarse lift was within 1 % of
-    OpenFOAM's ``kOmegaSST`` on the same mesh from 10 deg to C_L,max before session 6 made Rhie-Chow use the
-    momentum source's pressure gradient; now +2.04 % at 16 deg (docs/validation.md, "Findings (session 3)",
-    "Tried as the default (session 4)" and "The Green-Gauss pressure gradient on the fine mesh (session 6)")."""
+    :data:`NEAR_STALL_SST` (used with :data:`NEAR_STALL_SETTINGS`, see the module docstring)."""
     return SST(wall_treatment="low_re", **(NEAR_STALL_SST if near_stall else {}))
 
 
@@ -167,8 +168,8 @@ def naca_settings(near_stall: bool = False, **overrides) -> SimpleSettings:
     cell's remaining mass imbalance (net inflow) exceeds ``(1/alpha_u - 1) a_P`` (measured: near the
     leading edge, and in the far-wake cells near the outflow plane); SIMPLE's ``V / a_P`` stays positive.
 
-    ``near_stall``: with :data:`NEAR_STALL_SETTINGS`. Their ``limiter_iterations`` counts the iterations of
-    the whole run (:data:`LIMITER_ITERATIONS`): :func:`run_naca0012` turns it into each chunk's own count.
+    ``near_stall``: with :data:`NEAR_STALL_SETTINGS`. A ``limiter_iterations`` override counts the iterations
+    of the whole run (:data:`LIMITER_ITERATIONS`): :func:`run_naca0012` turns it into each chunk's own count.
     """
     base = dict(algorithm="simple", alpha_u=0.7, alpha_p=0.3, stall_tol=None, max_iter=100, tol=-1.0,
                 monitor_groups=(),

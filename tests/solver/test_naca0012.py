@@ -195,7 +195,11 @@ def test_the_limited_start_up_counts_over_the_run_and_the_stop_test_waits_for_it
     from solver.validation.naca0012 import LIMITER_ITERATIONS, chunk_limiter, limiter_off_since, naca_settings
 
     assert naca_settings().limiter_iterations is None                       # the case's default: limited throughout
-    cfg = naca_settings(near_stall=True)
+    near = naca_settings(near_stall=True)
+    assert (near.limiter, near.limiter_k, near.limiter_iterations, near.pressure_gradient) == \
+        ("venkatakrishnan_wang", 20.0, None, "green_gauss")             # limited throughout, weakly
+    cfg = naca_settings(near_stall=True, limiter="venkatakrishnan", limiter_k=5.0,
+                        limiter_iterations=LIMITER_ITERATIONS)          # session 3-4's variant
     assert cfg.limiter_iterations == LIMITER_ITERATIONS == 500 and cfg.pressure_gradient == "green_gauss"
     assert [chunk_limiter(cfg, done).limiter_iterations for done in (0, 400, 500, 2000)] == [500, 100, 0, 0]
     assert limiter_off_since(cfg, 1100) == 600 and limiter_off_since(cfg, 500) == 0
@@ -204,8 +208,9 @@ def test_the_limited_start_up_counts_over_the_run_and_the_stop_test_waits_for_it
 
 
 def test_the_near_stall_variant_has_its_sst_terms_and_the_default_case_has_none():
-    """The near-stall SST is SST-2003 (``low_re``) with OpenFOAM's limited omega production and the two-point wall
-    omega flux (docs/validation.md, "Tried as the default (session 4)"); the case's default SST is the plain SST-2003."""
+    """The near-stall SST is SST-2003 (``low_re``) with OpenFOAM's limited omega production and the two-point
+    wall omega flux (docs/validation.md, "Tried as the default (session 4)"); the case's default SST is the plain
+    SST-2003."""
     from solver.turbulence import SST
     from solver.validation.naca0012 import naca_turbulence
 
