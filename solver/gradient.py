@@ -43,32 +43,6 @@ def ls_gradient(mesh: FVMesh, phi: np.ndarray, phi_b: np.ndarray) -> np.ndarray:
     return g.reshape(phi.shape + (2,))
 
 
-def ls_gradient_rows(mesh: FVMesh, cells: np.ndarray, phi: np.ndarray, phi_b: np.ndarray) -> np.ndarray:
-    """The rows ``cells`` of :func:`ls_gradient` ``(len(cells), ..., 2)``, without the others: the same
-    per-cell sums in the same order (bitwise those rows), on the paired operators' rows of ``cells`` (cut once
-    per cell set and cached in ``mesh.info``). Why: the wall pressure of the force monitors needs the gradient
-    of the wall cells only (:meth:`solver.results.FlowResults.forces`, every outer iteration)."""
-    cells = np.asarray(cells, dtype=np.int64)
-    cache = mesh.info.setdefault("ls_rows", {})
-    key = cells.tobytes()
-    ops = cache.get(key)
-    if ops is None:
-        ops = cache[key] = tuple(_rows_of(op, cells) for op in paired_ls_operators(mesh))
-    nc, nb = mesh.n_cells, mesh.n_boundary
-    g = paired_row_gradient(*ops[0], *ops[1], np.ascontiguousarray(phi, dtype=float).reshape(nc, -1),
-                            np.ascontiguousarray(phi_b, dtype=float).reshape(nb, -1))
-    return g.reshape((cells.size,) + phi.shape[1:] + (2,))
-
-
-def _rows_of(op: tuple[np.ndarray, np.ndarray, np.ndarray], rows: np.ndarray):
-    """The paired-row operator ``op`` (``indptr``, ``indices``, ``values``) cut to ``rows``, in that order."""
-    indptr, indices, values = op
-    start, length = indptr[rows].astype(np.int64), np.diff(indptr.astype(np.int64))[rows]
-    ptr = np.concatenate([[0], np.cumsum(length)])
-    slots = np.repeat(start - ptr[:-1], length) + np.arange(ptr[-1])
-    return unsigned(ptr), unsigned(indices[slots]), np.ascontiguousarray(values[slots])
-
-
 def ls_operators(mesh: FVMesh):
     """The least-squares gradient as two sparse matrices (built once per mesh, cached in ``mesh.info``;
     :class:`solver.kernels.CompiledCSR`, whose ``matrix`` is the scipy CSR): ``(cell (2 nc, nc), boundary

@@ -242,10 +242,8 @@ def paired_row_gradient(c_ptr, c_idx, c_val, b_ptr, b_idx, b_val, phi, phi_b):
     list of columns (``c_ptr``, ``c_idx``) with the weights of both directions ``c_val (nnz, 2)``, the same
     for the boundary faces (``b_*``). ``out[c, k, i] = sum_cells + sum_faces``, each a running sum in column
     order: bitwise the sum of the two CSR products ``(2 nc, ·)`` it replaces (a direction's zero weight on a
-    column only the other direction has adds 0), reading each column once for both directions. The rows are
-    those of the operators (``c_ptr.size - 1``; a cut of the cells' rows gives those rows only)."""
-    nc = c_ptr.shape[0] - 1
-    m = phi.shape[1]
+    column only the other direction has adds 0), reading each column once for both directions."""
+    nc, m = phi.shape
     out = np.empty((nc, m, 2))
     for c in range(nc):
         for k in range(m):

@@ -9,7 +9,7 @@ import numpy as np
 
 from .boundary import FIXED, BoundaryData
 from .fvmesh import CELL_TYPES, FVMesh
-from .gradient import ls_gradient, ls_gradient_rows
+from .gradient import ls_gradient
 
 #: Possible values of :attr:`FlowResults.status`.
 STATUSES = ("converged", "oscillating", "not_converged", "diverged")
@@ -97,22 +97,6 @@ class FlowResults:
         """Static pressure at the boundary-face centres ``(nb,)``, Pa (linear extrapolation)."""
         return self.boundary.pressure(self.mesh, self.p, self.grad_p())
 
-    def face_pressure(self, j: np.ndarray) -> np.ndarray:
-        """``boundary_pressure()[j]`` (``j`` boundary-local face indices), from the pressure gradient of the
-        faces' owner cells only (:func:`solver.gradient.ls_gradient_rows`, the same values bitwise): the
-        force monitors call it every outer iteration, where the whole gradient twice cost ~4 % of the
-        iteration on a coarse blade mesh. Falls back to the whole gradient where an owner also owns a face
-        of a mean-pressure outlet (whose values depend on every face of that outlet)."""
-        m = self.mesh
-        o = m.owner[m.n_internal:]
-        cells = np.unique(o[j])
-        if any(np.isin(o[jj], cells).any() for jj, _ in self.boundary.p_mean):
-            return self.boundary_pressure()[j]
-        g = np.zeros((m.n_cells, 2))
-        g[cells] = ls_gradient_rows(m, cells, self.p, self.boundary.pressure(m, self.p, None))
-        g[cells] = ls_gradient_rows(m, cells, self.p, self.boundary.pressure(m, self.p, g))
-        return self.boundary.pressure(m, self.p, g)[j]
-
     def forces(self, group: str) -> Forces:
         """Force of the fluid on the boundary ``group`` per unit span (N/m).
 
@@ -123,7 +107,7 @@ class FlowResults:
         m = self.mesh
         j = m.boundary_local(group)
         f = m.n_internal + j
-        pb = self.face_pressure(j)
+        pb = self.boundary_pressure()[j]
         pressure = (pb[:, None] * m.sf[f]).sum(axis=0)
         mu_w, dn, du_t = self._shear_parts(group)
         viscous = (mu_w * m.length[f] / dn)[:, None] * du_t

@@ -405,26 +405,3 @@ def test_stencil_and_scatter_equal_numpy_forms(mesh, vector):
     src, face = rng.standard_normal((nc,) + shape), rng.standard_normal((ni,) + shape)
     ref = src - sum_per_cell(o, face, nc) + sum_per_cell(n, face, nc)
     np.testing.assert_array_equal(scatter_face_sources(mesh, src, face), ref)
-
-
-@pytest.mark.parametrize("mode", ["fixed", "mean"])
-def test_ls_gradient_rows_are_the_whole_gradients_rows(mesh, mode):
-    """ls_gradient_rows gives the chosen rows of ls_gradient bitwise (scalar and vector fields, any order),
-    and FlowResults.face_pressure the boundary pressure of those faces bitwise (with a mean-pressure outlet
-    too, where the faces next to it take the whole gradient)."""
-    from solver.boundary import resolve_boundaries
-    from solver.gradient import ls_gradient_rows
-    from solver.results import FlowResults
-
-    rng = np.random.default_rng(3)
-    p, p_b = rng.normal(size=mesh.n_cells), rng.normal(size=mesh.n_boundary)
-    u, u_b = rng.normal(size=(mesh.n_cells, 2)), rng.normal(size=(mesh.n_boundary, 2))
-    cells = np.array([7, 0, mesh.n_cells - 1, 12])
-    assert np.array_equal(ls_gradient_rows(mesh, cells, p, p_b), ls_gradient(mesh, p, p_b)[cells])
-    assert np.array_equal(ls_gradient_rows(mesh, cells, u, u_b), ls_gradient(mesh, u, u_b)[cells])
-    bnd = resolve_boundaries(mesh, {"left": {"type": "velocity_inlet", "velocity": (2.0, 0.0)}, "top": "wall",
-                                    "right": {"type": "pressure_outlet", "p": 0.5, "mode": mode}, "bottom": "wall"})
-    res = FlowResults(mesh, bnd, u, p, np.zeros(mesh.n_faces), {}, "", "", 0, 1.0, 1e-3)
-    for group in mesh.group_names:
-        j = mesh.boundary_local(group)
-        assert np.array_equal(res.face_pressure(j), res.boundary_pressure()[j]), group
