@@ -309,7 +309,9 @@ class _SolverBase(_Frozen):
 
     Keys of the section alone: model: ``sst`` (k-ω SST, the paper's model) or ``laminar``.
     wall_treatment: SST wall treatment, ``automatic`` (wall functions blended with the low-Re
-    formulation by y+) or ``low_re`` (resolved to the wall, y+ ~ 1). initial: initial velocity field,
+    formulation by y+) or ``low_re`` (resolved to the wall, y+ ~ 1). omega_production, omega_wall_flux:
+    the SST options of the same names (:class:`solver.turbulence.SST`: ``unlimited`` or ``limited`` omega
+    production; ``analytic`` or ``two_point`` omega flux next to the wall cells). initial: initial velocity field,
     ``freestream`` (uniform ``(C0, 0)``, the default), ``potential`` (the potential flow around the blade,
     :func:`solver.potential_start`: fewer start-up divergences in the channel at coarse, docs/benchmarks.md)
     or ``rest`` (zero; diverged at once at Re = 1e6).
@@ -324,6 +326,8 @@ class _SolverBase(_Frozen):
 
     model: Literal["sst", "laminar"] = "sst"
     wall_treatment: Literal["automatic", "low_re"] = "automatic"
+    omega_production: Literal["unlimited", "limited"] = "unlimited"
+    omega_wall_flux: Literal["analytic", "two_point"] = "analytic"
     initial: Literal["freestream", "rest", "potential"] = "freestream"
 
     @field_validator("*", mode="before")

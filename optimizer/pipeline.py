@@ -199,7 +199,8 @@ def solve_flow(config: Config, fvmesh: FVMesh, *, log: Log | None = None, every:
     returned (its status says so)."""
     s = config.solver
     say = log or (lambda _line: None)
-    turbulence = {"turbulence": SST(wall_treatment=s.wall_treatment)} if s.model == "sst" else {}
+    turbulence = {"turbulence": SST(wall_treatment=s.wall_treatment, omega_production=s.omega_production,
+                                    omega_wall_flux=s.omega_wall_flux)} if s.model == "sst" else {}
     try:
         problem = Problem.create(fvmesh, boundary_conditions(config), Fluid(config.flow.density,
                                  config.flow.viscosity), **turbulence)

@@ -180,3 +180,24 @@ def test_sst_pipeline_runs_a_few_iterations():
     assert ev.model == "sst" and ev.ok and not ev.converged and ev.iterations == 15
     assert ev.yplus_max is not None and 0.1 < ev.yplus_max < 10      # mesh built for y+ = 1
     assert ev.c_max > 10.0
+
+
+def test_solver_section_sets_the_sst_options(monkeypatch):
+    from optimizer import pipeline
+    from optimizer.pipeline import StageFailure
+
+    seen = {}
+
+    class Capture:
+        @staticmethod
+        def create(mesh, conditions, fluid, turbulence=None):
+            seen["sst"] = turbulence
+            raise ValueError("captured")
+
+    monkeypatch.setattr(pipeline, "Problem", Capture)
+    config = load_config(BENCH, ["solver.omega_production=limited", "solver.omega_wall_flux=two_point",
+                                 "solver.wall_treatment=low_re"])
+    with pytest.raises(StageFailure, match="captured"):
+        pipeline.solve_flow(config, fvmesh=None)
+    sst = seen["sst"]
+    assert (sst.omega_production, sst.omega_wall_flux, sst.wall_treatment) == ("limited", "two_point", "low_re")
