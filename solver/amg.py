@@ -23,6 +23,7 @@ import numpy as np
 import scipy.linalg as sla
 import scipy.sparse as sp
 from numba import njit
+from scipy.linalg.lapack import dpotrf, dpotrs
 
 from .kernels import csr_matvec, csr_residual, gauss_seidel_sweeps, unsigned
 
@@ -162,14 +163,23 @@ class GalerkinHierarchy:
             data = level.refresh(data)
         dense = np.zeros((self.coarse_n, self.coarse_n))
         dense[self.coarse_slots] = data
-        try:
-            self.coarse_factor = ("cholesky", sla.cho_factor(dense))
-        except (np.linalg.LinAlgError, ValueError):          # not SPD: pyamg's default, the pseudo-inverse
+        factor, info = dpotrf(dense, lower=False, clean=False) if np.isfinite(dense).all() else (None, -1)
+        if info == 0:
+            self.coarse_factor = ("cholesky", factor)
+        else:                                   # not SPD (or not finite): pyamg's default, the pseudo-inverse
             self.coarse_factor = ("pinv", sla.pinv(dense))
 
     def _coarse_solve(self, b: np.ndarray) -> np.ndarray:
+        """The coarsest level's solve: LAPACK's Cholesky solve ``dpotrs`` on the factor of :meth:`refresh`
+        (``dpotrf``), called directly — what ``scipy.linalg.cho_factor`` / ``cho_solve`` call, bitwise, without
+        their per-call validation and batching wrappers (50 µs a V-cycle at 13 unknowns, 1.5 % of a coarse
+        blade iteration); a non-finite right-hand side raises ``ValueError`` as ``cho_solve`` does."""
         kind, factor = self.coarse_factor
-        return sla.cho_solve(factor, b) if kind == "cholesky" else factor @ b
+        if kind != "cholesky":
+            return factor @ b
+        if not np.isfinite(b).all():
+            raise ValueError("array must not contain infs or NaNs")
+        return dpotrs(factor, b, lower=False)[0]
 
     def __call__(self, b: np.ndarray) -> np.ndarray:
         b = np.ascontiguousarray(b, dtype=float)
