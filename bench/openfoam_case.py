@@ -264,8 +264,10 @@ def read_face_flux(path: Path, mesh, rho: float = 1.0) -> np.ndarray:
 
 def openfoam_state(directory: Path, problem):
     """A :class:`solver.FlowState` of ``problem`` (same mesh as the case) from the latest written time of a
-    finished ``simpleFoam`` ``kOmegaSST`` case: U, p (kinematic, times rho; plus ``2/3 rho k``, which
-    millfoil's pressure holds), the face mass flux (:func:`read_face_flux`), k, omega, nut; the gradients
+    finished ``simpleFoam`` ``kOmegaSST`` case: U, p (kinematic, times rho: already the modified pressure
+    ``p + 2/3 rho k`` that millfoil's holds, since OpenFOAM's ``divDevReff`` leaves the ``2/3 k`` part of the
+    Reynolds stress out of the momentum equation; constant across the boundary layer in both codes'
+    fields, docs/validation.md, session 8), the face mass flux (:func:`read_face_flux`), k, omega, nut; the gradients
     are the least-squares ones of these fields and the wall viscosity the molecular one (``low_re``).
     The restart test of docs/validation.md: millfoil started from OpenFOAM's converged solution."""
     from solver.gradient import ls_gradient
@@ -278,7 +280,7 @@ def openfoam_state(directory: Path, problem):
     nc = m.n_cells
     u = read_field(last / "U", nc)[0][:, :2].copy()
     k, omega, nut = (read_field(last / name, nc)[0] for name in ("k", "omega", "nut"))
-    p = rho * (read_field(last / "p", nc)[0] + 2.0 / 3.0 * k)
+    p = rho * read_field(last / "p", nc)[0]
     grad_u = ls_gradient(m, u, b.velocity(m, u, np.zeros((nc, 2, 2))))
     grad_u = ls_gradient(m, u, b.velocity(m, u, grad_u))
     grad_p = ls_gradient(m, p, b.pressure(m, p, np.zeros((nc, 2))))
