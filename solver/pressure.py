@@ -168,8 +168,10 @@ class PressureCorrection:
 
 
 def pressure_correction_system(mesh: FVMesh, pattern: FVPattern, bnd: BoundaryData, flux: np.ndarray,
-                               r_atu: np.ndarray, rho: float) -> PressureCorrection:
-    """Assemble the SPD p' system for the fluxes ``flux``; ``r_atu``: ``D̃`` per cell.
+                               r_atu: np.ndarray, rho: float,
+                               imbalance: np.ndarray | None = None) -> PressureCorrection:
+    """Assemble the SPD p' system for the fluxes ``flux``; ``r_atu``: ``D̃`` per cell; ``imbalance``:
+    :func:`mass_imbalance` of ``flux`` where the caller has it already (computed here otherwise).
 
     Without a fixed-pressure boundary the system is singular: the right-hand side is projected onto
     zero mean and cell 0 is pinned (its diagonal doubled), which selects the solution with p'_0 = 0.
@@ -180,7 +182,7 @@ def pressure_correction_system(mesh: FVMesh, pattern: FVPattern, bnd: BoundaryDa
     ob = mesh.owner[ni:]
     cb = np.where(bnd.p_fixed, rho * r_atu[ob] * mesh.diff_coeff[ni:], 0.0)
     diag = np.bincount(o, ci, nc) + np.bincount(n, ci, nc) + np.bincount(ob, cb, nc)
-    rhs = -mass_imbalance(mesh, flux)
+    rhs = -(mass_imbalance(mesh, flux) if imbalance is None else imbalance)
     pinned = not bnd.has_fixed_pressure
     if pinned:
         rhs = rhs - rhs.mean()

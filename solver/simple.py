@@ -143,7 +143,7 @@ def outer_iteration(problem: Problem, s: FlowState, cfg: SimpleSettings, solver_
     res["continuity"] = float(np.abs(imbalance).sum() / (np.abs(flux).sum() + 1e-300))
     # 4. pressure correction
     r_atu = _lookup(ALGORITHMS, "algorithm", cfg.algorithm)(m.volume, mom)
-    pc = pressure_correction_system(m, problem.pattern, bnd, flux, r_atu, rho)
+    pc = pressure_correction_system(m, problem.pattern, bnd, flux, r_atu, rho, imbalance)
     check_finite("p", "pressure-correction coefficients or source", pc.system.A.data, pc.system.b)
     p_corr, _ = cfg.pressure_solver.solve(pc.system, solver_state.setdefault("pressure", {}))
     # 5. corrections
