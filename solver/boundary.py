@@ -17,10 +17,30 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from . import kernels
 from .fvmesh import FVMesh
 
 #: Velocity treatment codes per boundary face.
 FIXED, ZERO_GRADIENT, SYMMETRY = 0, 1, 2
+
+
+#: Stand-ins for "no gradient" in the compiled boundary values (:func:`solver.kernels.boundary_velocity`,
+#: :func:`solver.kernels.boundary_pressure`), by the gradient's number of dimensions.
+_EMPTY_GRADIENT = {2: np.zeros((0, 2)), 3: np.zeros((0, 2, 2))}
+
+
+def _boundary_offsets(mesh: FVMesh) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(owner (nb,), r (nb, 2), r_t (nb, 2))`` of the boundary faces: owner cells, centroid -> face centre and
+    its tangential part ``r - (r·n) n``, m (cached in ``mesh.info``: geometry, fixed per mesh)."""
+    cached = mesh.info.get("boundary_offsets")
+    if cached is None:
+        ni = mesh.n_internal
+        o = mesh.owner[ni:]
+        r = np.ascontiguousarray(mesh.face_centre[ni:] - mesh.centroid[o])
+        n = mesh.normal[ni:]
+        r_t = np.ascontiguousarray(r - np.einsum("ij,ij->i", r, n)[:, None] * n)
+        cached = mesh.info["boundary_offsets"] = (o, r, r_t)
+    return cached
 
 
 @dataclass(frozen=True, eq=False)
@@ -61,34 +81,22 @@ class BoundaryData:
         gradient ``grad_u (nc, 2, 2)`` is given: exact for fields with zero normal derivative.
         """
         ni = mesh.n_internal
-        o = mesh.owner[ni:]
-        up = u[o]
-        n = mesh.normal[ni:]
-        if grad_u is not None:
-            r = mesh.face_centre[ni:] - mesh.centroid[o]
-            r_t = r - np.einsum("ij,ij->i", r, n)[:, None] * n
-            up = up + np.einsum("fcd,fd->fc", grad_u[o], r_t)
-        sym = up - np.einsum("ij,ij->i", up, n)[:, None] * n
-        k = self.velocity_kind[:, None]
-        return np.where(k == FIXED, self.u_fixed, np.where(k == SYMMETRY, sym, up))
+        o, r, r_t = _boundary_offsets(mesh)
+        g = _EMPTY_GRADIENT[3] if grad_u is None else np.ascontiguousarray(grad_u, dtype=float)
+        return kernels.boundary_velocity(np.ascontiguousarray(u, dtype=float), g, o, r_t, mesh.normal[ni:],
+                                         self.velocity_kind, self.u_fixed, FIXED, SYMMETRY)
 
     def pressure(self, mesh: FVMesh, p: np.ndarray, grad_p: np.ndarray | None) -> np.ndarray:
         """Pressure at the boundary-face centres ``(nb,)``: prescribed, else extrapolated from the owner
         cell with its gradient (zero normal gradient if ``grad_p`` is None)."""
         ni = mesh.n_internal
-        o = mesh.owner[ni:]
-        pb = p[o].copy()
-        if grad_p is not None:
-            pb += np.einsum("ij,ij->i", grad_p[o], mesh.face_centre[ni:] - mesh.centroid[o])
-        out = np.where(self.p_fixed, self.p_value, pb)
-        for j, target in self.p_mean:
-            f = ni + j
-            prof = p[o[j]]
-            if grad_p is not None:       # zero normal gradient: reconstruct along the face only
-                r = mesh.face_centre[f] - mesh.centroid[o[j]]
-                n = mesh.normal[f]
-                prof = prof + np.einsum("ij,ij->i", grad_p[o[j]], r - np.einsum("ij,ij->i", r, n)[:, None] * n)
-            w = mesh.length[f]
+        o, r, r_t = _boundary_offsets(mesh)
+        g = _EMPTY_GRADIENT[2] if grad_p is None else np.ascontiguousarray(grad_p, dtype=float)
+        out, along = kernels.boundary_pressure(np.ascontiguousarray(p, dtype=float), g, o, r, r_t, self.p_fixed,
+                                               self.p_value)
+        for j, target in self.p_mean:   # zero normal gradient: the owner value along the face, shifted
+            w = mesh.length[ni + j]
+            prof = along[j]
             out[j] = prof - np.dot(w, prof) / w.sum() + target
         return out
 

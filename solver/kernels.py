@@ -512,3 +512,55 @@ def scatter_face_sources(src, face, owner, neighbour):
             from_owner[owner[f], k] += face[f, k]
             from_neighbour[neighbour[f], k] += face[f, k]
     return (src - from_owner) + from_neighbour
+
+
+@njit(cache=True)
+def boundary_velocity(u, grad, owner_b, r_t, normal, kind, u_fixed, fixed, symmetry):
+    """Boundary-face velocities ``(nb, 2)`` (:meth:`solver.boundary.BoundaryData.velocity`): the owner value
+    ``u_P + grad_u_P·r_t`` (``grad`` ``(nc, 2, 2)``, or an empty array for the plain owner value), its
+    tangential part on ``symmetry`` faces, ``u_fixed`` on ``fixed`` faces; ``r_t`` ``(nb, 2)`` the tangential
+    part of centroid -> face centre, m."""
+    nb = owner_b.shape[0]
+    out = np.empty((nb, 2))
+    with_grad = grad.shape[0] > 0
+    for f in range(nb):
+        o = owner_b[f]
+        up0 = u[o, 0]
+        up1 = u[o, 1]
+        if with_grad:
+            up0 = up0 + (grad[o, 0, 0] * r_t[f, 0] + grad[o, 0, 1] * r_t[f, 1])
+            up1 = up1 + (grad[o, 1, 0] * r_t[f, 0] + grad[o, 1, 1] * r_t[f, 1])
+        if kind[f] == fixed:
+            out[f, 0] = u_fixed[f, 0]
+            out[f, 1] = u_fixed[f, 1]
+        elif kind[f] == symmetry:
+            n0 = normal[f, 0]
+            n1 = normal[f, 1]
+            un = up0 * n0 + up1 * n1
+            out[f, 0] = up0 - un * n0
+            out[f, 1] = up1 - un * n1
+        else:
+            out[f, 0] = up0
+            out[f, 1] = up1
+    return out
+
+
+@njit(cache=True)
+def boundary_pressure(p, grad, owner_b, r, r_t, fixed, value):
+    """Boundary-face pressures ``(nb,)`` (:meth:`solver.boundary.BoundaryData.pressure`): ``value`` where
+    ``fixed``, else ``p_P + grad_p_P·r``; and ``p_P + grad_p_P·r_t`` ``(nb,)``, the owner value reconstructed
+    along the face (its mean-pressure groups). ``grad`` ``(nc, 2)``, or an empty array for ``p_P`` in both;
+    ``r`` ``(nb, 2)`` centroid -> face centre and ``r_t`` its tangential part, m."""
+    nb = owner_b.shape[0]
+    out = np.empty(nb)
+    along = np.empty(nb)
+    with_grad = grad.shape[0] > 0
+    for f in range(nb):
+        o = owner_b[f]
+        if with_grad:
+            along[f] = p[o] + (grad[o, 0] * r_t[f, 0] + grad[o, 1] * r_t[f, 1])
+            out[f] = value[f] if fixed[f] else p[o] + (grad[o, 0] * r[f, 0] + grad[o, 1] * r[f, 1])
+        else:
+            along[f] = p[o]
+            out[f] = value[f] if fixed[f] else p[o]
+    return out, along

@@ -405,3 +405,61 @@ def test_stencil_and_scatter_equal_numpy_forms(mesh, vector):
     src, face = rng.standard_normal((nc,) + shape), rng.standard_normal((ni,) + shape)
     ref = src - sum_per_cell(o, face, nc) + sum_per_cell(n, face, nc)
     np.testing.assert_array_equal(scatter_face_sources(mesh, src, face), ref)
+
+
+def _boundary_velocity_numpy(bnd, mesh, u, grad_u):
+    """The numpy form of :meth:`BoundaryData.velocity` (the reference of :func:`kernels.boundary_velocity`)."""
+    from solver.boundary import FIXED, SYMMETRY
+
+    ni = mesh.n_internal
+    o = mesh.owner[ni:]
+    up = u[o]
+    n = mesh.normal[ni:]
+    if grad_u is not None:
+        r = mesh.face_centre[ni:] - mesh.centroid[o]
+        r_t = r - np.einsum("ij,ij->i", r, n)[:, None] * n
+        up = up + np.einsum("fcd,fd->fc", grad_u[o], r_t)
+    sym = up - np.einsum("ij,ij->i", up, n)[:, None] * n
+    k = bnd.velocity_kind[:, None]
+    return np.where(k == FIXED, bnd.u_fixed, np.where(k == SYMMETRY, sym, up))
+
+
+def _boundary_pressure_numpy(bnd, mesh, p, grad_p):
+    """The numpy form of :meth:`BoundaryData.pressure` (the reference of :func:`kernels.boundary_pressure`)."""
+    ni = mesh.n_internal
+    o = mesh.owner[ni:]
+    pb = p[o].copy()
+    if grad_p is not None:
+        pb += np.einsum("ij,ij->i", grad_p[o], mesh.face_centre[ni:] - mesh.centroid[o])
+    out = np.where(bnd.p_fixed, bnd.p_value, pb)
+    for j, target in bnd.p_mean:
+        f = ni + j
+        prof = p[o[j]]
+        if grad_p is not None:
+            r = mesh.face_centre[f] - mesh.centroid[o[j]]
+            n = mesh.normal[f]
+            prof = prof + np.einsum("ij,ij->i", grad_p[o[j]], r - np.einsum("ij,ij->i", r, n)[:, None] * n)
+        w = mesh.length[f]
+        out[j] = prof - np.dot(w, prof) / w.sum() + target
+    return out
+
+
+@pytest.mark.parametrize("outlet", ["pressure_outlet", "mean"])
+def test_boundary_values_equal_numpy_forms(mesh, outlet):
+    """:meth:`BoundaryData.velocity` and :meth:`BoundaryData.pressure` (compiled) against their numpy forms,
+    bitwise, with and without gradients; every velocity kind (fixed, zero gradient, symmetry) and a fixed or
+    mean-pressure outlet."""
+    from solver.boundary import resolve_boundaries
+
+    out = {"type": "pressure_outlet", "p": 2.0}
+    if outlet == "mean":
+        out["mode"] = "mean"
+    bnd = resolve_boundaries(mesh, {"left": {"type": "velocity_inlet", "velocity": (1.0, 0.2)}, "right": out,
+                                    "bottom": "symmetry", "top": "wall"})
+    rng = np.random.default_rng(14)
+    u, p = rng.standard_normal((mesh.n_cells, 2)), rng.standard_normal(mesh.n_cells)
+    grad_u, grad_p = rng.standard_normal((mesh.n_cells, 2, 2)), rng.standard_normal((mesh.n_cells, 2))
+    for g in (grad_u, None):
+        np.testing.assert_array_equal(bnd.velocity(mesh, u, g), _boundary_velocity_numpy(bnd, mesh, u, g))
+    for g in (grad_p, None):
+        np.testing.assert_array_equal(bnd.pressure(mesh, p, g), _boundary_pressure_numpy(bnd, mesh, p, g))
