@@ -255,3 +255,25 @@ def test_laminar_path_unchanged():
                       - np.bincount(m.neighbour[:ni], t[:, c], m.n_cells) for c in range(2)], 1)
     assert np.allclose(b.u.b - a.u.b, src_t[:, 0], atol=1e-12) and np.allclose(b.v.b - a.v.b, src_t[:, 1],
                                                                                  atol=1e-12)
+
+
+@pytest.mark.parametrize("turbulent", [True, False])
+def test_outer_iteration_leaves_the_state_arrays_untouched(turbulent):
+    """:func:`solver.simple.outer_iteration` replaces the arrays of the state and never writes into them:
+    ``solve_steady`` keeps a shallow snapshot of the last iterate to fall back to after a divergence."""
+    import dataclasses
+
+    from solver.simple import outer_iteration
+
+    p = channel_problem("automatic", n=12)
+    if not turbulent:
+        p = dataclasses.replace(p, turbulence=None, turbulence_setup=None)
+    s = initial_state(p, (1.0, 0.0))
+    settings = SimpleSettings(**SIMPLEC)
+    for it in range(1, 4):
+        before = dataclasses.replace(s)
+        saved = {k: None if v is None else np.copy(v) for k, v in dataclasses.asdict(before).items()}
+        outer_iteration(p, s, settings, {"iteration": it})
+        for k, v in saved.items():
+            if v is not None:
+                assert np.array_equal(getattr(before, k), v, equal_nan=True), k
