@@ -158,7 +158,10 @@ def spalding_u_tau(u_t, y, nu, kappa, exp_kappa_b, halvings):
     """Friction velocity ``(n,)`` from Spalding's law of the wall by bisection on ``u+`` per face
     (:func:`solver.turbulence.closures.spalding_u_tau`, whose numpy form it follows operation by
     operation): ``Re_y / u+ = u+ + e^(-kappa B) (e^(kappa u+) - 1 - kappa u+ - (kappa u+)²/2 - (kappa u+)³/6)``
-    with ``Re_y = u_t y / nu``, bracket ``(0, sqrt(Re_y) (1 + 1e-12)]``; ``exp_kappa_b`` = ``e^(-kappa B)``."""
+    with ``Re_y = u_t y / nu``, bracket ``(0, sqrt(Re_y) (1 + 1e-12)]``; ``exp_kappa_b`` = ``e^(-kappa B)``.
+    Stops early once a halving leaves the bracket as it was (its midpoint rounds to the end it would replace):
+    every later halving would do the same, so the result is bitwise that of all ``halvings`` (53 of 60 are
+    done on a blade's wall faces)."""
     out = np.empty(u_t.shape[0])
     for f in range(u_t.shape[0]):
         re_y = max(u_t[f] * y[f] / nu, 1e-300)
@@ -170,8 +173,12 @@ def spalding_u_tau(u_t, y, nu, kappa, exp_kappa_b, halvings):
             ku = kappa * up
             g = re_y / up - (up + exp_kappa_b * (np.exp(ku) - 1.0 - ku - ku**2 / 2.0 - ku**3.0 / 6.0))
             if g > 0:
+                if mid == lo:       # the bracket no longer moves: the halvings left would repeat this one
+                    break
                 lo = mid
             else:
+                if mid == hi:
+                    break
                 hi = mid
         u_plus = 0.5 * (lo + hi)
         out[f] = u_t[f] / max(u_plus, 1e-300) if re_y > 1e-200 else 0.0
