@@ -571,3 +571,67 @@ def boundary_pressure(p, grad, owner_b, r, r_t, fixed, value):
             along[f] = p[o]
             out[f] = value[f] if fixed[f] else p[o]
     return out, along
+
+
+@njit(cache=True)
+def sst_blending_arguments(k, omega, d, grad_k, grad_w, nu, sigma_w2, beta_star, cd_floor):
+    """The arguments of the SST blending functions and ``grad k · grad omega`` per cell ``(nc,)``
+    (:mod:`solver.turbulence.closures`, the same operations in the same order; the ``tanh`` and the powers
+    stay numpy's, whose SIMD forms differ from libm's in the last bit): ``arg1`` of
+    :func:`~solver.turbulence.closures.f1` with ``CD_kw`` of :func:`~solver.turbulence.closures.cross_diffusion`,
+    ``arg2`` of :func:`~solver.turbulence.closures.f2`; ``grad_k``, ``grad_w`` ``(nc, 2)``."""
+    n = k.shape[0]
+    arg1 = np.empty(n)
+    arg2 = np.empty(n)
+    kw = np.empty(n)
+    for c in range(n):
+        w = omega[c]
+        y = d[c]
+        dot = grad_k[c, 0] * grad_w[c, 0] + grad_k[c, 1] * grad_w[c, 1]
+        kw[c] = dot
+        cd = max(2.0 * sigma_w2 / w * dot, cd_floor)
+        root_k = np.sqrt(k[c])
+        viscous = 500.0 * nu / (y * y * w)
+        arg1[c] = min(max(root_k / (beta_star * w * y), viscous), 4.0 * sigma_w2 * k[c] / (cd * y * y))
+        arg2[c] = max(2.0 * root_k / (beta_star * w * y), viscous)
+    return arg1, arg2, kw
+
+
+@njit(cache=True)
+def sst_f2_argument(k, omega, d, nu, beta_star):
+    """``arg2`` of :func:`~solver.turbulence.closures.f2` per cell ``(nc,)`` (see :func:`sst_blending_arguments`)."""
+    n = k.shape[0]
+    arg2 = np.empty(n)
+    for c in range(n):
+        w = omega[c]
+        y = d[c]
+        arg2[c] = max(2.0 * np.sqrt(k[c]) / (beta_star * w * y), 500.0 * nu / (y * y * w))
+    return arg2
+
+
+@njit(cache=True)
+def sst_omega_coefficients(f1, omega, kw, p_w, nu_t, rho, mu, beta1, beta2, gamma1, gamma2, sigma_w1, sigma_w2,
+                           sigma_k1, sigma_k2):
+    """The coefficients of one SST step blended by ``F1`` per cell ``(nc,)``
+    (:func:`solver.turbulence.sst.turbulence_step`, the same operations in the same order): the omega
+    equation's sources ``su = rho (gamma p_w + beta omega² + max(CD, 0))`` and ``sp = rho (2 beta omega +
+    max(-CD, 0) / omega)`` with the cross diffusion ``CD = 2 (1 - F1) sigma_w2 / omega kw`` (``kw = grad k ·
+    grad omega``), and the cell diffusivities ``mu + rho sigma nu_t`` of omega and k."""
+    n = omega.shape[0]
+    su = np.empty(n)
+    sp = np.empty(n)
+    gamma_w = np.empty(n)
+    gamma_k = np.empty(n)
+    for c in range(n):
+        f = f1[c]
+        w = omega[c]
+        beta = f * beta1 + (1.0 - f) * beta2
+        gamma = f * gamma1 + (1.0 - f) * gamma2
+        sig_w = f * sigma_w1 + (1.0 - f) * sigma_w2
+        sig_k = f * sigma_k1 + (1.0 - f) * sigma_k2
+        cdw = 2.0 * (1.0 - f) * sigma_w2 / w * kw[c]
+        su[c] = rho * (gamma * p_w[c] + beta * (w * w) + max(cdw, 0.0))
+        sp[c] = rho * (2.0 * beta * w + max(-cdw, 0.0) / w)
+        gamma_w[c] = mu + rho * sig_w * nu_t[c]
+        gamma_k[c] = mu + rho * sig_k * nu_t[c]
+    return su, sp, gamma_w, gamma_k

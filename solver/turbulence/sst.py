@@ -14,17 +14,13 @@ from ..assembly import CONVECTION_SCHEMES, convection_gradient
 from ..boundary import FIXED, BoundaryData
 from ..fvmesh import FVMesh
 from ..gradient import interpolate_linear, ls_gradient
-from ..kernels import dot_last, log_mean_faces
+from ..kernels import log_mean_faces, sst_blending_arguments, sst_f2_argument, sst_omega_coefficients
 from ..linalg import SolverSettings
 from ..transport import scalar_system
 from ..walldistance import WALL_TYPES, wall_distance, wall_faces
 from .closures import (
     SSTConstants,
-    blend,
-    cross_diffusion,
     eddy_viscosity,
-    f1,
-    f2,
     inlet_turbulence,
     omega_flux_factor,
     production,
@@ -266,19 +262,19 @@ def turbulence_step(model: SST, setup: SSTSetup, mesh: FVMesh, pattern, bnd: Bou
     w_b = np.where(setup.inlet, setup.omega_b, omega[ob])
     grad_k = ls_gradient(mesh, k, k_b)
     grad_w = ls_gradient(mesh, omega, w_b)
-    cd = cross_diffusion(grad_k, grad_w, omega, c)
-    F1 = f1(k, omega, d, nu, cd, c)
-    F2 = f2(k, omega, d, nu, c)
-    nu_t = eddy_viscosity(k, omega, np.sqrt(s2), F2, c)
+    # the closures per cell (F1, F2, nu_t, the coefficients blended by F1) in compiled loops, bitwise those of
+    # f1, f2, cross_diffusion, blend (tanh and the powers stay numpy's)
+    arg1, arg2, kw = sst_blending_arguments(k, omega, d, grad_k, grad_w, nu, c.sigma_w2, c.beta_star, c.cd_floor)
+    F1 = np.tanh(arg1**4)
+    strain = np.sqrt(s2)
+    nu_t = eddy_viscosity(k, omega, strain, np.tanh(arg2**2), c)
     res = {}
     # omega: gamma S² - beta w² (Newton-linearised: 2 beta w implicit, + beta w² explicit) + cross diffusion
-    beta, gamma = blend(F1, c.beta1, c.beta2), blend(F1, c.gamma1, c.gamma2)
-    sig_w = blend(F1, c.sigma_w1, c.sigma_w2)
-    cdw = 2.0 * (1.0 - F1) * c.sigma_w2 / omega * dot_last(grad_k, grad_w)
     p_w = OMEGA_PRODUCTIONS[model.omega_production](sp2, nu_t, k, omega, c)
-    su = rho * (gamma * p_w + beta * omega**2 + np.maximum(cdw, 0.0))
-    sp = rho * (2.0 * beta * omega + np.maximum(-cdw, 0.0) / omega)
-    gam = face_diffusivity(mesh, mu + rho * sig_w * nu_t, (mu + rho * sig_w * nu_t)[ob], model.face_interpolation)
+    su, sp, gam_w_cell, gam_k_cell = sst_omega_coefficients(
+        F1, omega, kw, p_w, nu_t, rho, mu, c.beta1, c.beta2, c.gamma1, c.gamma2, c.sigma_w1, c.sigma_w2,
+        c.sigma_k1, c.sigma_k2)
+    gam = face_diffusivity(mesh, gam_w_cell, gam_w_cell[ob], model.face_interpolation)
     if setup.near_faces is not None and len(setup.near_faces):     # omega flux out of the fixed wall cells
         y = setup.near_y
         gam[setup.near_faces] *= OMEGA_WALL_FLUXES[model.omega_wall_flux](
@@ -299,9 +295,7 @@ def turbulence_step(model: SST, setup: SSTSetup, mesh: FVMesh, pattern, bnd: Bou
     if np.any(wall.production_weight > 0):
         wgt = wall.production_weight
         pk[wc] = (1.0 - wgt) * pk[wc] + wgt * wall.production_log
-    sig_k = blend(F1, c.sigma_k1, c.sigma_k2)
-    gam_k = face_diffusivity(mesh, mu + rho * sig_k * nu_t, (mu + rho * sig_k * nu_t)[ob],
-                             model.face_interpolation)
+    gam_k = face_diffusivity(mesh, gam_k_cell, gam_k_cell[ob], model.face_interpolation)
     gam_k[ni + wl] = mu                              # nu_t = 0 on the wall (k = 0 there with low_re)
     ghk = convection_gradient(mesh, k, k_b, grad_k, model.convection, model.limiter, model.limiter_k)
     sys_k = scalar_system(mesh, pattern, k, k_b, k_dir, flux, gam_k, grad_k, ghk, rho * c.beta_star * omega_new,
@@ -310,8 +304,8 @@ def turbulence_step(model: SST, setup: SSTSetup, mesh: FVMesh, pattern, bnd: Bou
     k_new, _ = model.solver.solve(sys_k, solver_state.setdefault("k", {}))
     k_new = np.maximum(k_new, model.k_floor * setup.k_ref)
     # eddy viscosity from the new k and omega
-    F2 = f2(k_new, omega_new, d, nu, c)
-    nu_t = eddy_viscosity(k_new, omega_new, np.sqrt(s2), F2, c)
+    F2 = np.tanh(sst_f2_argument(k_new, omega_new, d, nu, c.beta_star)**2)
+    nu_t = eddy_viscosity(k_new, omega_new, strain, F2, c)
     return res, k_new, omega_new, nu_t, wall.mu_wall
 
 

@@ -463,3 +463,37 @@ def test_boundary_values_equal_numpy_forms(mesh, outlet):
         np.testing.assert_array_equal(bnd.velocity(mesh, u, g), _boundary_velocity_numpy(bnd, mesh, u, g))
     for g in (grad_p, None):
         np.testing.assert_array_equal(bnd.pressure(mesh, p, g), _boundary_pressure_numpy(bnd, mesh, p, g))
+
+
+def test_sst_closure_kernels_equal_closures():
+    """The compiled SST closures (:func:`kernels.sst_blending_arguments`, :func:`kernels.sst_f2_argument`,
+    :func:`kernels.sst_omega_coefficients`) with numpy's tanh and powers on top, against the closures of
+    :mod:`solver.turbulence.closures` and the numpy form of the omega sources, bitwise; cells across the F1
+    switch, both signs of grad k · grad omega."""
+    from solver.kernels import sst_blending_arguments, sst_f2_argument, sst_omega_coefficients
+    from solver.turbulence.closures import SSTConstants, blend, cross_diffusion, eddy_viscosity, f1, f2
+
+    c = SSTConstants()
+    rng = np.random.default_rng(15)
+    n, nu, rho, mu = 2000, 1.5e-5, 1.2, 1.8e-5
+    k, omega = 10.0 ** rng.uniform(-6, 1, n), 10.0 ** rng.uniform(-1, 6, n)
+    d = 10.0 ** rng.uniform(-6, 0, n)
+    grad_k, grad_w = rng.standard_normal((n, 2)) * 1e2, rng.standard_normal((n, 2)) * 1e5
+    strain = 10.0 ** rng.uniform(-1, 4, n)
+    arg1, arg2, kw = sst_blending_arguments(k, omega, d, grad_k, grad_w, nu, c.sigma_w2, c.beta_star, c.cd_floor)
+    F1 = np.tanh(arg1**4)
+    np.testing.assert_array_equal(F1, f1(k, omega, d, nu, cross_diffusion(grad_k, grad_w, omega, c), c))
+    np.testing.assert_array_equal(np.tanh(arg2**2), f2(k, omega, d, nu, c))
+    np.testing.assert_array_equal(np.tanh(sst_f2_argument(k, omega, d, nu, c.beta_star)**2), f2(k, omega, d, nu, c))
+    assert 0.05 < (F1 > 0.5).mean() < 0.95
+    nu_t = eddy_viscosity(k, omega, strain, f2(k, omega, d, nu, c), c)
+    p_w = strain**2
+    su, sp, gam_w, gam_k = sst_omega_coefficients(F1, omega, kw, p_w, nu_t, rho, mu, c.beta1, c.beta2, c.gamma1,
+                                                  c.gamma2, c.sigma_w1, c.sigma_w2, c.sigma_k1, c.sigma_k2)
+    beta, gamma = blend(F1, c.beta1, c.beta2), blend(F1, c.gamma1, c.gamma2)
+    cdw = 2.0 * (1.0 - F1) * c.sigma_w2 / omega * np.einsum("ij,ij->i", grad_k, grad_w)
+    np.testing.assert_array_equal(su, rho * (gamma * p_w + beta * omega**2 + np.maximum(cdw, 0.0)))
+    np.testing.assert_array_equal(sp, rho * (2.0 * beta * omega + np.maximum(-cdw, 0.0) / omega))
+    np.testing.assert_array_equal(gam_w, mu + rho * blend(F1, c.sigma_w1, c.sigma_w2) * nu_t)
+    np.testing.assert_array_equal(gam_k, mu + rho * blend(F1, c.sigma_k1, c.sigma_k2) * nu_t)
+    assert (cdw > 0).any() and (cdw < 0).any()
