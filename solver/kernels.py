@@ -635,3 +635,39 @@ def sst_omega_coefficients(f1, omega, kw, p_w, nu_t, rho, mu, beta1, beta2, gamm
         gamma_w[c] = mu + rho * sig_w * nu_t[c]
         gamma_k[c] = mu + rho * sig_k * nu_t[c]
     return su, sp, gamma_w, gamma_k
+
+
+@njit(cache=True)
+def scalar_boundary_terms(diag, src, phi, phi_b, dirichlet, flux_b, gamma_b, diff_coeff_b, grad, t_vec_b, owner_b):
+    """The boundary faces' part of a scalar transport system (:func:`solver.transport.scalar_system`), added
+    to ``diag``, ``src`` ``(nc,)`` in place: per face ``D = gamma diff_coeff`` on ``dirichlet`` faces (else 0),
+    ``diag_b = D + max(F, 0)`` (outflow implicit), ``src_b = D phi_b + gamma grad_P·T`` (dirichlet; else
+    ``+ 0``) ``- F phi_in`` on inflow faces (``phi_in`` = ``phi_b`` on dirichlet faces, else the owner value,
+    lagged); the per-cell sums accumulated in face order and then added, as ``np.bincount``."""
+    nc = diag.shape[0]
+    acc_d = np.zeros(nc)
+    acc_s = np.zeros(nc)
+    for f in range(owner_b.shape[0]):
+        o = owner_b[f]
+        F = flux_b[f]
+        D = gamma_b[f] * diff_coeff_b[f] if dirichlet[f] else 0.0
+        out = F > 0
+        acc_d[o] += D + (F if out else 0.0)
+        cross = gamma_b[f] * (grad[o, 0] * t_vec_b[f, 0] + grad[o, 1] * t_vec_b[f, 1]) if dirichlet[f] else 0.0
+        s = D * phi_b[f] + cross
+        s -= 0.0 if out else F * (phi_b[f] if dirichlet[f] else phi[o])
+        acc_s[o] += s
+    for c in range(nc):
+        diag[c] += acc_d[c]
+        src[c] += acc_s[c]
+
+
+@njit(cache=True)
+def decouple_fixed_cells(upper, lower, owner, neighbour, is_fixed):
+    """Zero, in place, the coefficients of the rows of fixed cells (:func:`solver.transport.scalar_system`):
+    ``upper`` (row owner) where the owner is fixed, ``lower`` (row neighbour) where the neighbour is."""
+    for f in range(upper.shape[0]):
+        if is_fixed[owner[f]]:
+            upper[f] = 0.0
+        if is_fixed[neighbour[f]]:
+            lower[f] = 0.0

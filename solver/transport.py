@@ -27,6 +27,7 @@ import numpy as np
 
 from .assembly import deferred_correction, non_orthogonal_diffusion, scatter_face_sources, upwind_stencil
 from .fvmesh import FVMesh
+from .kernels import decouple_fixed_cells, scalar_boundary_terms
 from .linalg import FVPattern, LinearSystem
 
 
@@ -52,24 +53,26 @@ def scalar_system(mesh: FVMesh, pattern: FVPattern, phi: np.ndarray, phi_b: np.n
     face = deferred_correction(mesh, flux, grad_ho)
     face -= non_orthogonal_diffusion(mesh, gamma[:ni], grad)
     src = scatter_face_sources(mesh, src, face)
-    # boundary faces
-    ob = mesh.owner[ni:]
-    Fb = flux[ni:]
-    Db = np.where(dirichlet, gamma[ni:] * mesh.diff_coeff[ni:], 0.0)
-    out = Fb > 0
-    diag_b = Db + np.where(out, Fb, 0.0)
-    src_b = Db * phi_b + np.where(dirichlet, gamma[ni:] * np.einsum("fd,fd->f", grad[ob], mesh.t_vec[ni:]), 0.0)
-    src_b -= np.where(out, 0.0, Fb * np.where(dirichlet, phi_b, phi[ob]))
-    diag += np.bincount(ob, diag_b, nc)
-    src += np.bincount(ob, src_b, nc)
+    # boundary faces (one compiled loop, :func:`solver.kernels.scalar_boundary_terms`)
+    scalar_boundary_terms(diag, src, np.ascontiguousarray(phi, dtype=float), np.ascontiguousarray(phi_b, dtype=float),
+                          dirichlet, np.ascontiguousarray(flux[ni:], dtype=float),
+                          np.ascontiguousarray(gamma[ni:], dtype=float), mesh.diff_coeff[ni:],
+                          np.ascontiguousarray(grad, dtype=float), _t_vec_boundary(mesh), mesh.owner[ni:])
     # under-relaxation
     d = diag / alpha
     b = src + (1.0 - alpha) * d * phi
     if fixed_cells is not None and len(fixed_cells):
         is_fixed = np.zeros(nc, bool)
         is_fixed[fixed_cells] = True
-        upper = np.where(is_fixed[o], 0.0, upper)
-        lower = np.where(is_fixed[n], 0.0, lower)
+        decouple_fixed_cells(upper, lower, o, n, is_fixed)
         d[fixed_cells] = 1.0
         b[fixed_cells] = fixed_values
     return LinearSystem(pattern.matrix(d, upper, lower), b, phi.copy(), pattern)
+
+
+def _t_vec_boundary(mesh: FVMesh) -> np.ndarray:
+    """``T_f`` ``(nb, 2)`` of the boundary faces, contiguous (cached in ``mesh.info``)."""
+    cached = mesh.info.get("t_vec_boundary")
+    if cached is None:
+        cached = mesh.info["t_vec_boundary"] = np.ascontiguousarray(mesh.t_vec[mesh.n_internal:], dtype=float)
+    return cached

@@ -497,3 +497,59 @@ def test_sst_closure_kernels_equal_closures():
     np.testing.assert_array_equal(gam_w, mu + rho * blend(F1, c.sigma_w1, c.sigma_w2) * nu_t)
     np.testing.assert_array_equal(gam_k, mu + rho * blend(F1, c.sigma_k1, c.sigma_k2) * nu_t)
     assert (cdw > 0).any() and (cdw < 0).any()
+
+
+def _scalar_system_numpy(mesh, pattern, phi, phi_b, dirichlet, flux, gamma, grad, sp, su, alpha, fixed_cells,
+                         fixed_values):
+    """The numpy form of :func:`solver.transport.scalar_system` with upwind convection (the reference of
+    :func:`kernels.scalar_boundary_terms` and :func:`kernels.decouple_fixed_cells`)."""
+    from solver.assembly import non_orthogonal_diffusion, scatter_face_sources, upwind_stencil
+    from solver.linalg import LinearSystem
+
+    ni, nc = mesh.n_internal, mesh.n_cells
+    o, n = mesh.owner[:ni], mesh.neighbour[:ni]
+    st = upwind_stencil(mesh, flux, gamma[:ni])
+    diag, upper, lower = st.diag, st.upper, st.lower
+    src = su * mesh.volume
+    diag += sp * mesh.volume
+    src = scatter_face_sources(mesh, src, -non_orthogonal_diffusion(mesh, gamma[:ni], grad))
+    ob = mesh.owner[ni:]
+    Fb = flux[ni:]
+    Db = np.where(dirichlet, gamma[ni:] * mesh.diff_coeff[ni:], 0.0)
+    out = Fb > 0
+    diag_b = Db + np.where(out, Fb, 0.0)
+    src_b = Db * phi_b + np.where(dirichlet, gamma[ni:] * np.einsum("fd,fd->f", grad[ob], mesh.t_vec[ni:]), 0.0)
+    src_b -= np.where(out, 0.0, Fb * np.where(dirichlet, phi_b, phi[ob]))
+    diag += np.bincount(ob, diag_b, nc)
+    src += np.bincount(ob, src_b, nc)
+    d = diag / alpha
+    b = src + (1.0 - alpha) * d * phi
+    is_fixed = np.zeros(nc, bool)
+    is_fixed[fixed_cells] = True
+    upper = np.where(is_fixed[o], 0.0, upper)
+    lower = np.where(is_fixed[n], 0.0, lower)
+    d[fixed_cells] = 1.0
+    b[fixed_cells] = fixed_values
+    return LinearSystem(pattern.matrix(d, upper, lower), b, phi.copy(), pattern)
+
+
+def test_scalar_system_equals_numpy_form(mesh):
+    """:func:`solver.transport.scalar_system` (boundary terms and fixed cells compiled) against its numpy
+    form, bitwise: inflow and outflow faces, dirichlet and zero-gradient faces, fixed cells."""
+    from solver.linalg import FVPattern
+    from solver.transport import scalar_system
+
+    rng = np.random.default_rng(16)
+    nc, nb = mesh.n_cells, mesh.n_boundary
+    pattern = FVPattern.from_mesh(mesh)
+    phi, phi_b = rng.uniform(0.5, 2.0, nc), rng.uniform(0.5, 2.0, nb)
+    dirichlet = rng.random(nb) < 0.5
+    flux, gamma = rng.standard_normal(mesh.n_faces), rng.uniform(0.1, 1.0, mesh.n_faces)
+    grad, sp, su = rng.standard_normal((nc, 2)), rng.uniform(0, 1, nc), rng.standard_normal(nc)
+    fixed = rng.choice(nc, 7, replace=False)
+    args = (mesh, pattern, phi, phi_b, dirichlet, flux, gamma, grad)
+    new = scalar_system(*args, np.zeros((nc, 2)), sp, su, 0.8, fixed, np.full(7, 3.0))
+    ref = _scalar_system_numpy(*args, sp, su, 0.8, fixed, np.full(7, 3.0))
+    np.testing.assert_array_equal(new.A.data, ref.A.data)
+    np.testing.assert_array_equal(new.b, ref.b)
+    assert (flux[mesh.n_internal:][dirichlet] < 0).any() and (flux[mesh.n_internal:][~dirichlet] < 0).any()
