@@ -443,25 +443,25 @@ def boundary_face_curvature(mesh: FVMesh, phi: np.ndarray, phi_b: np.ndarray,
     ``faces``: local boundary-face indices (``face - n_internal``) to evaluate, ``(len(faces), ...)``
     returned; default all. Only the owners' Hessian rows are computed (:func:`_boundary_hessians`): the
     outlet faces that need it are a few percent of the cells."""
-    ni = mesh.n_internal
     faces = np.arange(mesh.n_boundary) if faces is None else np.asarray(faces)
     v = extended(phi, phi_b)
     flat = v.reshape(v.shape[0], -1)
-    hxx, hxy, hyy = (op @ flat for op in _boundary_hessians(mesh, faces))
-    f = ni + faces
-    e = mesh.points[mesh.faces[f, 1]] - mesh.points[mesh.faces[f, 0]]
-    ex, ey = e[:, :1], e[:, 1:]
+    *hessians, (ex, ey) = _boundary_hessians(mesh, faces)
+    hxx, hxy, hyy = (op @ flat for op in hessians)
     out = (hxx * ex**2 + 2.0 * hxy * ex * ey + hyy * ey**2) / 24.0
     return out.reshape((faces.size,) + phi.shape[1:])
 
 
 def _boundary_hessians(mesh: FVMesh, faces: np.ndarray) -> tuple:
     """The rows of the Hessian operators (:func:`quadratic_operators`) at the owners of the boundary faces
-    ``faces`` (local indices), cached in ``mesh.info`` per face set. Row slices keep each row's entries in
-    order: the products are bitwise those of the full operators."""
+    ``faces`` (local indices) and the faces' edge vectors ``(ex, ey)`` ``(k, 1)`` each, cached in ``mesh.info``
+    per face set. Row slices keep each row's entries in order: the products are bitwise those of the full
+    operators."""
     cache = mesh.info.setdefault("boundary_hessians", {})
     key = faces.tobytes()
     if key not in cache:
-        owners = mesh.owner[mesh.n_internal + faces]
-        cache[key] = tuple(CompiledCSR(h[owners]) for h in quadratic_operators(mesh)["hess"])
+        f = mesh.n_internal + faces
+        owners = mesh.owner[f]
+        e = mesh.points[mesh.faces[f, 1]] - mesh.points[mesh.faces[f, 0]]
+        cache[key] = (*(CompiledCSR(h[owners]) for h in quadratic_operators(mesh)["hess"]), (e[:, :1], e[:, 1:]))
     return cache[key]

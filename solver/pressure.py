@@ -89,17 +89,33 @@ def outflow_face_velocity(mesh: FVMesh, bnd: BoundaryData, u: np.ndarray, u_b: n
     (:func:`solver.gradient.boundary_face_curvature`), capped as in :func:`face_velocity` — so that
     outflow faces carry face means like the internal faces (a developed profile leaves the domain with
     the flux it carries inside). Prescribed-velocity faces keep ``u_b``."""
-    tri = _triangles(mesh)
-    outflow = np.flatnonzero(bnd.velocity_kind == ZERO_GRADIENT)
-    if not tri.any() or not outflow.size:
+    outflow, o, cap_length = _outflow_faces(mesh, bnd)
+    if outflow is None:
         return u_b
-    ni = mesh.n_internal
-    o = mesh.owner[ni + outflow]
-    cap = QUADRATIC_CAP * face_operators(mesh)["d_length"][ni + outflow, None] * np.linalg.norm(grad_u[o], axis=-1)
-    cap *= tri[o][:, None]
+    cap = cap_length * np.linalg.norm(grad_u[o], axis=-1)
     out = u_b.copy()
     out[outflow] += np.clip(boundary_face_curvature(mesh, u, u_b, outflow), -cap, cap)
     return out
+
+
+def _outflow_faces(mesh: FVMesh, bnd: BoundaryData) -> tuple:
+    """``(outflow faces (local), their owners, QUADRATIC_CAP |d| (0 where the owner is not a triangle) (k, 1))``
+    of :func:`outflow_face_velocity`, or ``(None, None, None)`` where it has nothing to add (no triangles or no
+    zero-gradient faces); cached in ``mesh.info`` per velocity-kind pattern."""
+    key = ("outflow_faces", bnd.velocity_kind.tobytes())
+    cached = mesh.info.get(key)
+    if cached is None:
+        tri = _triangles(mesh)
+        outflow = np.flatnonzero(bnd.velocity_kind == ZERO_GRADIENT)
+        if not tri.any() or not outflow.size:
+            cached = (None, None, None)
+        else:
+            ni = mesh.n_internal
+            o = mesh.owner[ni + outflow]
+            d_length = face_operators(mesh)["d_length"][ni + outflow, None]
+            cached = (outflow, o, QUADRATIC_CAP * d_length * tri[o][:, None])
+        mesh.info[key] = cached
+    return cached
 
 
 def predicted_velocity_flux(mesh: FVMesh, bnd: BoundaryData, u: np.ndarray, u_b: np.ndarray,
