@@ -671,3 +671,51 @@ def decouple_fixed_cells(upper, lower, owner, neighbour, is_fixed):
             upper[f] = 0.0
         if is_fixed[neighbour[f]]:
             lower[f] = 0.0
+
+
+@njit(cache=True)
+def momentum_boundary_terms(u, u_b, flux_b, grad, mu_b, kind, owner_b, diff_coeff_b, t_vec_b, normal_b, d_b,
+                            length_b, n_cells, fixed, zero_gradient, symmetry):
+    """The boundary faces' part of the momentum systems (:func:`solver.momentum._boundary`, the same operations
+    in the same order): per cell ``(diag (nc,), src (nc, 2), symmetry diagonal (nc, 2))``, each sum accumulated
+    in face order (as ``np.bincount``). Per face with ``D = mu_b diff_coeff``: fixed-velocity faces ``diag += D``,
+    ``src += (D - F) u_b + mu_b grad_P·T``; zero-gradient faces ``diag += max(F, 0)``, ``src -= F u_b - max(F, 0)
+    u_P``; symmetry faces ``D_n = mu_b |S| / (d·n)``, ``src -= D_n n_x n_y (u_P,y, u_P,x)``, symmetry diagonal
+    ``D_n n²``."""
+    diag = np.zeros(n_cells)
+    src = np.zeros((n_cells, 2))
+    sym_d = np.zeros((n_cells, 2))
+    for f in range(owner_b.shape[0]):
+        o = owner_b[f]
+        F = flux_b[f]
+        m = mu_b[f]
+        k = kind[f]
+        D = m * diff_coeff_b[f]
+        f_pos = F if (F >= 0.0 or F != F) else 0.0
+        diag[o] += (D if k == fixed else 0.0) + (f_pos if k == zero_gradient else 0.0)
+        t0 = t_vec_b[f, 0]
+        t1 = t_vec_b[f, 1]
+        if k == fixed:
+            s0 = (D - F) * u_b[f, 0] + m * (grad[o, 0, 0] * t0 + grad[o, 0, 1] * t1)
+            s1 = (D - F) * u_b[f, 1] + m * (grad[o, 1, 0] * t0 + grad[o, 1, 1] * t1)
+        else:
+            s0 = 0.0
+            s1 = 0.0
+        if k == zero_gradient:
+            s0 -= F * u_b[f, 0] - f_pos * u[o, 0]
+            s1 -= F * u_b[f, 1] - f_pos * u[o, 1]
+        else:
+            s0 -= 0.0
+            s1 -= 0.0
+        n0 = normal_b[f, 0]
+        n1 = normal_b[f, 1]
+        dn = d_b[f, 0] * n0 + d_b[f, 1] * n1
+        Dn = m * length_b[f] / dn if k == symmetry else 0.0
+        cross = Dn * n0 * n1
+        s0 -= cross * u[o, 1]
+        s1 -= cross * u[o, 0]
+        src[o, 0] += s0
+        src[o, 1] += s1
+        sym_d[o, 0] += Dn * (n0 * n0)
+        sym_d[o, 1] += Dn * (n1 * n1)
+    return diag, src, sym_d

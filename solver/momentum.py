@@ -26,11 +26,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .assembly import deferred_correction, non_orthogonal_diffusion, scatter_face_sources, sum_per_cell, upwind_stencil
+from .assembly import deferred_correction, non_orthogonal_diffusion, scatter_face_sources, upwind_stencil
 from .boundary import FIXED, SYMMETRY, ZERO_GRADIENT, BoundaryData
 from .fvmesh import FVMesh
 from .gradient import linear_weights
-from .kernels import symmetric_gauss_seidel_pair, viscous_face_stress
+from .kernels import momentum_boundary_terms, symmetric_gauss_seidel_pair, viscous_face_stress
 from .linalg import FVPattern, LinearSystem, SolverSettings, reciprocal
 
 
@@ -114,26 +114,25 @@ def momentum_system(mesh: FVMesh, pattern: FVPattern, bnd: BoundaryData, u: np.n
 
 
 def _boundary(mesh, bnd, u, u_b, Fb, grad_u, mu):
-    """Boundary-face contributions: diagonal ``(nc,)``, source ``(nc, 2)``, symmetry diagonal ``(nc, 2)``."""
-    ni, nc = mesh.n_internal, mesh.n_cells
-    o = mesh.owner[ni:]
-    kind = bnd.velocity_kind
-    fixed = kind == FIXED
-    zg = kind == ZERO_GRADIENT
-    sym = kind == SYMMETRY
-    Db = mu * mesh.diff_coeff[ni:]
-    # fixed velocity: convection F u_b (explicit, known), diffusion Db (u_b - u_P) + mu grad_P·T
-    diag_f = np.where(fixed, Db, 0.0) + np.where(zg, np.maximum(Fb, 0.0), 0.0)
-    src_f = np.where(fixed[:, None], (Db[:, None] - Fb[:, None]) * u_b
-                     + np.reshape(mu, (-1, 1)) * np.einsum("fcd,fd->fc", grad_u[o], mesh.t_vec[ni:]), 0.0)
-    # zero-gradient outflow: F u_b with u_b reconstructed along the face; implicit part max(F, 0) u_P
-    src_f -= np.where(zg[:, None], Fb[:, None] * u_b - np.maximum(Fb, 0.0)[:, None] * u[o], 0.0)
-    # symmetry: wall-normal shear from the normal velocity component only
-    nrm = mesh.normal[ni:]
-    dn = np.einsum("ij,ij->i", mesh.d[ni:], nrm)
-    Dn = np.where(sym, mu * mesh.length[ni:] / dn, 0.0)
-    cross = Dn * nrm[:, 0] * nrm[:, 1]
-    src_f[:, 0] -= cross * u[o, 1]
-    src_f[:, 1] -= cross * u[o, 0]
-    sym_d = Dn[:, None] * nrm**2
-    return np.bincount(o, diag_f, nc), sum_per_cell(o, src_f, nc), sum_per_cell(o, sym_d, nc)
+    """Boundary-face contributions: diagonal ``(nc,)``, source ``(nc, 2)``, symmetry diagonal ``(nc, 2)``.
+
+    Fixed velocity: convection ``F u_b`` (explicit, known), diffusion ``D_b (u_b - u_P) + mu grad_P·T``;
+    zero-gradient outflow: ``F u_b`` with ``u_b`` reconstructed along the face, implicit part ``max(F, 0) u_P``;
+    symmetry: the wall-normal shear from the normal velocity component only. One compiled loop over the
+    boundary faces (:func:`solver.kernels.momentum_boundary_terms`)."""
+    ni, nb = mesh.n_internal, mesh.n_boundary
+    mu_b = np.ascontiguousarray(np.broadcast_to(np.asarray(mu, dtype=float), (nb,)))
+    return momentum_boundary_terms(np.ascontiguousarray(u, dtype=float), np.ascontiguousarray(u_b, dtype=float),
+                                   np.ascontiguousarray(Fb, dtype=float), np.ascontiguousarray(grad_u, dtype=float),
+                                   mu_b, bnd.velocity_kind, mesh.owner[ni:], mesh.diff_coeff[ni:],
+                                   *_boundary_geometry(mesh), mesh.n_cells, FIXED, ZERO_GRADIENT, SYMMETRY)
+
+
+def _boundary_geometry(mesh):
+    """``(T, n, d, |S|)`` of the boundary faces, contiguous (cached in ``mesh.info``)."""
+    cached = mesh.info.get("momentum_boundary_geometry")
+    if cached is None:
+        ni = mesh.n_internal
+        cached = mesh.info["momentum_boundary_geometry"] = tuple(
+            np.ascontiguousarray(a[ni:], dtype=float) for a in (mesh.t_vec, mesh.normal, mesh.d, mesh.length))
+    return cached

@@ -553,3 +553,47 @@ def test_scalar_system_equals_numpy_form(mesh):
     np.testing.assert_array_equal(new.A.data, ref.A.data)
     np.testing.assert_array_equal(new.b, ref.b)
     assert (flux[mesh.n_internal:][dirichlet] < 0).any() and (flux[mesh.n_internal:][~dirichlet] < 0).any()
+
+
+def _momentum_boundary_numpy(mesh, bnd, u, u_b, Fb, grad_u, mu):
+    """The numpy form of :func:`solver.momentum._boundary` (the reference of
+    :func:`kernels.momentum_boundary_terms`)."""
+    from solver.assembly import sum_per_cell
+    from solver.boundary import FIXED, SYMMETRY, ZERO_GRADIENT
+
+    ni, nc = mesh.n_internal, mesh.n_cells
+    o = mesh.owner[ni:]
+    kind = bnd.velocity_kind
+    fixed, zg, sym = kind == FIXED, kind == ZERO_GRADIENT, kind == SYMMETRY
+    Db = mu * mesh.diff_coeff[ni:]
+    diag_f = np.where(fixed, Db, 0.0) + np.where(zg, np.maximum(Fb, 0.0), 0.0)
+    src_f = np.where(fixed[:, None], (Db[:, None] - Fb[:, None]) * u_b
+                     + np.reshape(mu, (-1, 1)) * np.einsum("fcd,fd->fc", grad_u[o], mesh.t_vec[ni:]), 0.0)
+    src_f -= np.where(zg[:, None], Fb[:, None] * u_b - np.maximum(Fb, 0.0)[:, None] * u[o], 0.0)
+    nrm = mesh.normal[ni:]
+    dn = np.einsum("ij,ij->i", mesh.d[ni:], nrm)
+    Dn = np.where(sym, mu * mesh.length[ni:] / dn, 0.0)
+    cross = Dn * nrm[:, 0] * nrm[:, 1]
+    src_f[:, 0] -= cross * u[o, 1]
+    src_f[:, 1] -= cross * u[o, 0]
+    sym_d = Dn[:, None] * nrm**2
+    return np.bincount(o, diag_f, nc), sum_per_cell(o, src_f, nc), sum_per_cell(o, sym_d, nc)
+
+
+@pytest.mark.parametrize("per_face", [False, True])
+def test_momentum_boundary_equals_numpy_form(mesh, per_face):
+    """:func:`solver.momentum._boundary` (compiled) against its numpy form, bitwise: fixed, zero-gradient
+    (inflow and outflow) and symmetry faces, a scalar or per-face viscosity."""
+    from solver.boundary import resolve_boundaries
+    from solver.momentum import _boundary
+
+    bnd = resolve_boundaries(mesh, {"left": {"type": "velocity_inlet", "velocity": (1.0, 0.2)},
+                                    "right": "pressure_outlet", "bottom": "symmetry", "top": "wall"})
+    rng = np.random.default_rng(17)
+    nc, nb = mesh.n_cells, mesh.n_boundary
+    u, u_b = rng.standard_normal((nc, 2)), rng.standard_normal((nb, 2))
+    Fb, grad_u = rng.standard_normal(nb), rng.standard_normal((nc, 2, 2))
+    mu = rng.uniform(0.1, 1.0, nb) if per_face else 0.3
+    for new, ref in zip(_boundary(mesh, bnd, u, u_b, Fb, grad_u, mu),
+                        _momentum_boundary_numpy(mesh, bnd, u, u_b, Fb, grad_u, mu), strict=True):
+        np.testing.assert_array_equal(new, ref)
