@@ -289,16 +289,19 @@ def _amg_cg(system: LinearSystem, tol: float = 1e-2, maxiter: int = 100, state: 
         state["precondition"] = VCycle(ml) if VCycle.applies(ml) else ml.aspreconditioner(cycle="V").matvec
         calls = 0
     state["calls"] = calls + 1
-    x, stats = preconditioned_cg(system.A, system.b, system.x0, state["precondition"], tol, maxiter)
+    x, stats = preconditioned_cg(system.A, system.b, system.x0, state["precondition"], tol, maxiter,
+                                 system.csr_arrays())
     state["last_iterations"] = stats.iterations
     return x, stats
 
 
 def preconditioned_cg(A: sp.csr_matrix, b: np.ndarray, x0: np.ndarray, precondition: Callable, tol: float,
-                      maxiter: int):
+                      maxiter: int, arrays: tuple | None = None):
     """Preconditioned conjugate gradients to ``|b - A x| <= tol |b|`` (2-norms) or ``maxiter`` iterations;
     ``precondition(r) -> z``. Operation for operation scipy's ``scipy.sparse.linalg.cg`` (1.12-1.17; the
-    same iterates bitwise), without its wrappers. Returns ``(x, LinearSolverStats)``."""
+    same iterates bitwise), without its wrappers. ``arrays``: ``A``'s CSR arrays with unsigned indices where
+    the caller has them (:meth:`LinearSystem.csr_arrays`; converted here otherwise). Returns ``(x,
+    LinearSolverStats)``."""
     from .kernels import csr_matvec, csr_residual
 
     x = np.array(x0, dtype=float)
@@ -308,7 +311,7 @@ def preconditioned_cg(A: sp.csr_matrix, b: np.ndarray, x0: np.ndarray, precondit
         return b.copy(), LinearSolverStats(0, 0.0)
     atol = tol * b_norm
     n = A.shape[0]
-    indptr, indices, data = unsigned_csr(A)
+    indptr, indices, data = unsigned_csr(A) if arrays is None else arrays
     r = csr_residual(indptr, indices, data, x, b) if x.any() else b.copy()
     r0 = np.linalg.norm(r)
     rho_prev, p = None, None
