@@ -719,3 +719,51 @@ def momentum_boundary_terms(u, u_b, flux_b, grad, mu_b, kind, owner_b, diff_coef
         sym_d[o, 0] += Dn * (n0 * n0)
         sym_d[o, 1] += Dn * (n1 * n1)
     return diag, src, sym_d
+
+
+@njit(cache=True)
+def spd_condition_bound(a, use):
+    """An upper bound of the 2-norm condition number of each symmetric matrix ``a[c]`` (``(n, m, m)``) with
+    ``use[c]``: ``trace(A) ||L^-1||_F^2`` from its Cholesky factor ``L`` (``λ_max <= trace``, ``1/λ_min =
+    ||L^-1||_2^2 <= ||L^-1||_F^2``), at most ``m^2`` times the condition number; ``inf`` where the
+    factorisation fails (not positive definite to round-off) or ``use`` is false. A cheap screen before an
+    exact ``np.linalg.cond`` (SVD) of the few cells it cannot place far below a limit."""
+    n, m = a.shape[0], a.shape[1]
+    out = np.full(n, np.inf)
+    el = np.zeros((m, m))
+    inv = np.zeros((m, m))
+    for c in range(n):
+        if not use[c]:
+            continue
+        ok = True
+        trace = 0.0
+        for i in range(m):
+            trace += a[c, i, i]
+            for j in range(i + 1):
+                s = a[c, i, j]
+                for k in range(j):
+                    s -= el[i, k] * el[j, k]
+                if i == j:
+                    if not s > 0.0:
+                        ok = False
+                        break
+                    el[i, i] = np.sqrt(s)
+                else:
+                    el[i, j] = s / el[j, j]
+            if not ok:
+                break
+        if not ok:
+            continue
+        frob = 0.0
+        for j in range(m):                      # column j of L^-1 by forward substitution
+            for i in range(m):
+                if i < j:
+                    inv[i, j] = 0.0
+                    continue
+                s = 1.0 if i == j else 0.0
+                for k in range(j, i):
+                    s -= el[i, k] * inv[k, j]
+                inv[i, j] = s / el[i, i]
+                frob += inv[i, j] * inv[i, j]
+        out[c] = trace * frob
+    return out

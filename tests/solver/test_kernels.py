@@ -597,3 +597,21 @@ def test_momentum_boundary_equals_numpy_form(mesh, per_face):
     for new, ref in zip(_boundary(mesh, bnd, u, u_b, Fb, grad_u, mu),
                         _momentum_boundary_numpy(mesh, bnd, u, u_b, Fb, grad_u, mu), strict=True):
         np.testing.assert_array_equal(new, ref)
+
+
+def test_spd_condition_bound_brackets_the_condition_number():
+    """The Cholesky screen of the quadratic fit's conditioning: between cond and 25 cond (5 x 5), inf where the
+    matrix is not positive definite or not asked for."""
+    from solver.kernels import spd_condition_bound
+
+    rng = np.random.default_rng(3)
+    a = rng.standard_normal((300, 12, 5)) * np.logspace(0, 4, 5)
+    normal = np.einsum("cki,ckj->cij", a, a)
+    normal[0] = 0.0
+    normal[1] = np.diag([1.0, 1.0, 1.0, 1.0, -1.0])
+    use = np.ones(300, dtype=bool)
+    use[2] = False
+    bound = spd_condition_bound(normal, use)
+    assert np.isinf(bound[:3]).all()
+    ratio = bound[3:] / np.linalg.cond(normal[3:])
+    assert ratio.min() >= 1.0 - 1e-12 and ratio.max() <= 25.0
