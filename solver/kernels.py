@@ -767,3 +767,58 @@ def spd_condition_bound(a, use):
                 frob += inv[i, j] * inv[i, j]
         out[c] = trace * frob
     return out
+
+
+@njit(cache=True)
+def quadratic_face_rows(n_all, sides, weights, cells, coefficients, ptrs, idxs, vals):
+    """The face-average operator of :func:`solver.gradient.quadratic_operators` as CSR ``(indptr, indices,
+    data)``, ``(n_faces, n_all)``: for each face, the sum over both sides ``s`` (owner, neighbour) of ``w_s``
+    times the side cell's identity row, then ``c_t w_s op_t[cell]`` for the operators ``t`` (gradient x, y,
+    Hessian xx, xy, yy; CSR ``ptrs[t], idxs[t], vals[t]``) with coefficients ``coefficients[s, t]`` — the
+    twelve scipy products ``diags(c) @ (sel @ op)`` added in that order: each entry its terms' running sum
+    from 0, every term ``c (w v)``, sorted columns, exact zeros dropped (scipy's rules: bitwise its sum)."""
+    n = cells.shape[1]
+    n_ops = ptrs.shape[0]
+    cap = 0
+    for s in range(sides):
+        for f in range(n):
+            cap += 1
+            for t in range(n_ops):
+                cap += ptrs[t, cells[s, f] + 1] - ptrs[t, cells[s, f]]
+    indptr = np.zeros(n + 1, dtype=np.int64)
+    indices = np.empty(cap, dtype=np.int64)
+    data = np.empty(cap)
+    acc = np.zeros(n_all)
+    seen = np.zeros(n_all, dtype=np.bool_)
+    touched = np.empty(cap, dtype=np.int64)
+    k = 0
+    for f in range(n):
+        m = 0
+        for s in range(sides):
+            cell = cells[s, f]
+            w = weights[s, f]
+            if not seen[cell]:
+                seen[cell] = True
+                touched[m] = cell
+                m += 1
+            acc[cell] += w * 1.0
+            for t in range(n_ops):
+                c = coefficients[s, t, f]
+                for jj in range(ptrs[t, cell], ptrs[t, cell + 1]):
+                    j = idxs[t][jj]
+                    if not seen[j]:
+                        seen[j] = True
+                        touched[m] = j
+                        m += 1
+                    acc[j] += c * (w * vals[t][jj])
+        cols = np.sort(touched[:m])
+        for q in range(m):
+            j = cols[q]
+            if acc[j] != 0.0:
+                indices[k] = j
+                data[k] = acc[j]
+                k += 1
+            acc[j] = 0.0
+            seen[j] = False
+        indptr[f + 1] = k
+    return indptr, indices[:k], data[:k]
