@@ -822,3 +822,25 @@ def quadratic_face_rows(n_all, sides, weights, cells, coefficients, ptrs, idxs, 
             seen[j] = False
         indptr[f + 1] = k
     return indptr, indices[:k], data[:k]
+
+
+@njit(cache=True)
+def nearest_segment_distance(pts, a, b):
+    """``(n,)`` distance from each point ``pts[i]`` to the nearest segment ``a[s] -> b[s]``: the minimum over
+    every segment of :func:`solver.walldistance.segment_distance` (its operations in its order, bitwise per
+    pair)."""
+    n, m = pts.shape[0], a.shape[0]
+    out = np.empty(n)
+    for i in range(n):
+        best = np.inf
+        for s in range(m):
+            abx, aby = b[s, 0] - a[s, 0], b[s, 1] - a[s, 1]
+            px, py = pts[i, 0] - a[s, 0], pts[i, 1] - a[s, 1]
+            t = (px * abx + py * aby) / max(abx * abx + aby * aby, 1e-300)
+            t = min(max(t, 0.0), 1.0)
+            dx, dy = pts[i, 0] - (a[s, 0] + t * abx), pts[i, 1] - (a[s, 1] + t * aby)
+            d = np.sqrt(dx * dx + dy * dy)
+            if d < best:
+                best = d
+        out[i] = best
+    return out

@@ -165,9 +165,15 @@ def test_wall_distance_flat_wall_exact():
     assert np.allclose(wall_distance(m, m.boundary["bottom"]), m.centroid[:, 1], atol=1e-14)
 
 
-def test_wall_distance_matches_brute_force_on_polygon():
+@pytest.mark.parametrize("pairs", [0, None])
+def test_wall_distance_matches_brute_force_on_polygon(pairs, monkeypatch):
     """Cells around a 24-gon 'cylinder' wall (quads in a ring, very unequal faces): the k-d tree candidates
+    (``pairs`` 0: the tree at any size) and the compiled loop over every segment (the default at this size)
     give exactly the brute-force minimum over all wall segments."""
+    import solver.walldistance
+
+    if pairs is not None:
+        monkeypatch.setattr(solver.walldistance, "BRUTE_FORCE_PAIRS", pairs)
     nt, nr = 24, 6
     th = np.linspace(0, 2 * np.pi, nt, endpoint=False) + 0.08 * np.sin(np.arange(nt))   # unequal faces
     r = 0.5 * 1.4 ** np.arange(nr + 1)
