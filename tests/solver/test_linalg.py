@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 import scipy.sparse as sp
 
-from solver.amg import GalerkinHierarchy, galerkin_map
+from solver.amg import GalerkinHierarchy, galerkin_map, galerkin_map_numpy
 from solver.linalg import AMG_HIERARCHIES, FVPattern, LinearSystem, VCycle, _amg_cg, _seeded, _with_fast_smoothers
 from solver.validation.meshes import square_mesh
 
@@ -49,6 +49,23 @@ def test_galerkin_map_equals_triple_product(mesh, symmetric):
         assert abs(mine - ref).max() <= 1e-13 * abs(ref).max()
         assert symmetric == (mirror.shape[1] > 0)
         indptr, indices, data = c_indptr, c_indices, coarse
+
+
+@pytest.mark.parametrize("symmetric", [False, True])
+def test_galerkin_map_equals_its_numpy_form(mesh, symmetric):
+    """The compiled Galerkin map (row by row) against the sort-based numpy form: every returned array equal,
+    ``G``'s values bitwise, on every level."""
+    A = pressure_like_system(mesh, 1).A
+    ml = _seeded(AMG_HIERARCHIES["ruge_stuben"], A)
+    indptr, indices = A.indptr, A.indices
+    for lvl in ml.levels[:-1]:
+        ref = galerkin_map_numpy(indptr, indices, lvl.P, symmetric)
+        got = galerkin_map(indptr, indices, lvl.P, symmetric)
+        assert np.array_equal(got[0].indptr, ref[0].indptr) and np.array_equal(got[0].indices, ref[0].indices)
+        assert got[0].shape == ref[0].shape and got[0].data.tobytes() == ref[0].data.tobytes()
+        for a, b in zip(got[1:], ref[1:], strict=True):
+            assert np.array_equal(a, b)
+        indptr, indices = ref[2], ref[3]
 
 
 def test_refreshed_cycle_equals_v_cycle_of_the_new_galerkin_operators(mesh):
