@@ -811,9 +811,15 @@ def quadratic_face_rows(n_all, sides, weights, cells, coefficients, ptrs, idxs, 
                         touched[m] = j
                         m += 1
                     acc[j] += c * (w * vals[t][jj])
-        cols = np.sort(touched[:m])
+        for q in range(1, m):                   # insertion sort in place (tens of columns, runs mostly sorted)
+            j = touched[q]
+            p = q - 1
+            while p >= 0 and touched[p] > j:
+                touched[p + 1] = touched[p]
+                p -= 1
+            touched[p + 1] = j
         for q in range(m):
-            j = cols[q]
+            j = touched[q]
             if acc[j] != 0.0:
                 indices[k] = j
                 data[k] = acc[j]
