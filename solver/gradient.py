@@ -20,6 +20,7 @@ from .kernels import (
     paired_row_gradient,
     quadratic_face_rows,
     spd_condition_bound,
+    stencil_operator_rows,
     unsigned,
 )
 
@@ -379,10 +380,14 @@ def quadratic_operators(mesh: FVMesh) -> dict:
     coef[~ok] = 0.0
     n_all = nc + nb
 
+    s_indptr, s_indices = stencil.indptr.astype(np.int64), stencil.indices.astype(np.int64)
+
     def op(k):
+        # the stencil's weights minus their row sum on the diagonal (stencil_operator_rows: the arrays of
+        # csr_matrix((vals[valid], (cell_of, stencil.indices))) - diags(vals.sum(axis=1)), bitwise)
         vals = np.where(valid, coef[:, k, :], 0.0)
-        m = sp.csr_matrix((vals[valid], (cell_of, stencil.indices)), (nc, n_all))
-        return (m - sp.csr_matrix((vals.sum(axis=1), (np.arange(nc), np.arange(nc))), (nc, n_all))).tocsr()
+        indptr, indices, data = stencil_operator_rows(s_indptr, s_indices, vals, vals.sum(axis=1))
+        return sp.csr_matrix((data, indices, indptr), (nc, n_all))
 
     grad = [op(0), op(1)]
     hess = [op(2), op(3), op(4)]

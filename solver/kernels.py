@@ -850,3 +850,40 @@ def nearest_segment_distance(pts, a, b):
                 best = d
         out[i] = best
     return out
+
+
+@njit(cache=True)
+def stencil_operator_rows(indptr, indices, values, row_sum):
+    """CSR ``(indptr, indices, data)`` of ``M - diag(row_sum)`` for ``M`` the CSR pattern ``indptr, indices``
+    (sorted columns, no diagonal entry) with row ``c``'s values ``values[c, :len]``: scipy's ``csr_matrix
+    ((values, (rows, cols))) - csr_matrix((row_sum, (c, c)))`` (each value, ``-row_sum`` inserted at the
+    diagonal in column order, exact zeros dropped: bitwise its arrays), without its COO conversion."""
+    n = indptr.shape[0] - 1
+    out_ptr = np.zeros(n + 1, dtype=np.int64)
+    out_idx = np.empty(indices.shape[0] + n, dtype=np.int64)
+    out_val = np.empty(indices.shape[0] + n)
+    k = 0
+    for c in range(n):
+        placed = False
+        for q in range(indptr[c + 1] - indptr[c]):
+            j = indices[indptr[c] + q]
+            if not placed and j > c:
+                d = 0.0 - row_sum[c]
+                if d != 0.0:
+                    out_idx[k] = c
+                    out_val[k] = d
+                    k += 1
+                placed = True
+            v = values[c, q]
+            if v != 0.0:
+                out_idx[k] = j
+                out_val[k] = v
+                k += 1
+        if not placed:
+            d = 0.0 - row_sum[c]
+            if d != 0.0:
+                out_idx[k] = c
+                out_val[k] = d
+                k += 1
+        out_ptr[c + 1] = k
+    return out_ptr, out_idx[:k].copy(), out_val[:k].copy()

@@ -644,3 +644,26 @@ def test_quadratic_face_rows_equal_scipy_sums(mesh):
     assert face.has_sorted_indices
     assert np.array_equal(indptr, face.indptr) and np.array_equal(indices, face.indices)
     assert data.tobytes() == face.data.tobytes()
+
+
+def test_stencil_operator_rows_equal_scipy_difference():
+    """The quadratic fit's operator rows against scipy's ``csr(values) - csr(diag(row sums))`` (sorted CSR,
+    zeros dropped, bitwise), with zero values and a zero row sum among them."""
+    from solver.kernels import stencil_operator_rows
+
+    rng = np.random.default_rng(5)
+    nc, n_all, kmax = 60, 75, 9
+    counts = rng.integers(1, kmax, nc)
+    rows = [np.sort(rng.choice(np.setdiff1d(np.arange(n_all), [c]), k, replace=False)) for c, k in enumerate(counts)]
+    indptr, indices = np.concatenate([[0], np.cumsum(counts)]), np.concatenate(rows)
+    cell_of = np.repeat(np.arange(nc), counts)
+    valid = np.zeros((nc, kmax), dtype=bool)
+    valid[cell_of, np.arange(indices.size) - indptr[cell_of]] = True
+    vals = np.where(valid, rng.standard_normal((nc, kmax)), 0.0)
+    vals[3] = 0.0
+    vals[7, 1:] = 0.0
+    ref = (sp.csr_matrix((vals[valid], (cell_of, indices)), (nc, n_all))
+           - sp.csr_matrix((vals.sum(axis=1), (np.arange(nc), np.arange(nc))), (nc, n_all))).tocsr()
+    got = stencil_operator_rows(indptr.astype(np.int64), indices.astype(np.int64), vals, vals.sum(axis=1))
+    assert np.array_equal(got[0], ref.indptr) and np.array_equal(got[1], ref.indices)
+    assert got[2].tobytes() == ref.data.tobytes()
