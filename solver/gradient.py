@@ -17,6 +17,7 @@ from .kernels import (
     interpolate_faces,
     interpolate_faces_1,
     interpolate_faces_2,
+    merge_row_pairs,
     paired_row_gradient,
     quadratic_face_rows,
     spd_condition_bound,
@@ -94,13 +95,9 @@ def paired_rows(op) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     (nnz, 2)``: the two rows' entries, 0 on a column only the other row has."""
     op = op.tocsr()
     op.sort_indices()
-    n, m = op.shape[0] // 2, op.shape[1]
-    row = np.repeat(np.arange(op.shape[0]), np.diff(op.indptr))
-    key = (row // 2) * m + op.indices                                   # (pair, column), ascending per row
-    union = np.unique(key)
-    values = np.zeros((union.size, 2))
-    values[np.searchsorted(union, key), row % 2] = op.data
-    return unsigned(np.searchsorted(union, np.arange(n + 1) * m)), unsigned(union % m), values
+    indptr, indices, values = merge_row_pairs(op.indptr.astype(np.int64), op.indices.astype(np.int64),
+                                              np.asarray(op.data, dtype=float))
+    return unsigned(indptr), unsigned(indices), values
 
 
 def neighbour_bounds(mesh: FVMesh, phi: np.ndarray, phi_b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

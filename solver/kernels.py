@@ -887,3 +887,37 @@ def stencil_operator_rows(indptr, indices, values, row_sum):
                 k += 1
         out_ptr[c + 1] = k
     return out_ptr, out_idx[:k].copy(), out_val[:k].copy()
+
+
+@njit(cache=True)
+def merge_row_pairs(indptr, indices, data):
+    """Rows ``2 i`` and ``2 i + 1`` of a CSR matrix (sorted columns) merged: ``indptr``, ``indices`` of each
+    pair's column union (ascending) and ``values (nnz, 2)``, 0 where only the other row has the column
+    (:func:`solver.gradient.paired_rows`; the arrays of its ``np.unique`` form)."""
+    n = (indptr.shape[0] - 1) // 2
+    cap = indices.shape[0]
+    out_ptr = np.zeros(n + 1, dtype=np.int64)
+    out_idx = np.empty(cap, dtype=np.int64)
+    values = np.zeros((cap, 2))
+    k = 0
+    for i in range(n):
+        a, a_end = indptr[2 * i], indptr[2 * i + 1]
+        b, b_end = indptr[2 * i + 1], indptr[2 * i + 2]
+        while a < a_end or b < b_end:
+            if b >= b_end or (a < a_end and indices[a] < indices[b]):
+                out_idx[k] = indices[a]
+                values[k, 0] = data[a]
+                a += 1
+            elif a >= a_end or indices[b] < indices[a]:
+                out_idx[k] = indices[b]
+                values[k, 1] = data[b]
+                b += 1
+            else:
+                out_idx[k] = indices[a]
+                values[k, 0] = data[a]
+                values[k, 1] = data[b]
+                a += 1
+                b += 1
+            k += 1
+        out_ptr[i + 1] = k
+    return out_ptr, out_idx[:k].copy(), values[:k].copy()

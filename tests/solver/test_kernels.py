@@ -667,3 +667,20 @@ def test_stencil_operator_rows_equal_scipy_difference():
     got = stencil_operator_rows(indptr.astype(np.int64), indices.astype(np.int64), vals, vals.sum(axis=1))
     assert np.array_equal(got[0], ref.indptr) and np.array_equal(got[1], ref.indices)
     assert got[2].tobytes() == ref.data.tobytes()
+
+
+def test_merge_row_pairs_equals_unique_form():
+    """Row pairs of a sorted CSR matrix merged: the arrays of the ``np.unique`` / ``searchsorted`` form."""
+    from solver.kernels import merge_row_pairs
+
+    op = sp.random(40, 30, density=0.2, random_state=np.random.default_rng(6), format="csr")
+    op.sort_indices()
+    n, m = op.shape[0] // 2, op.shape[1]
+    row = np.repeat(np.arange(op.shape[0]), np.diff(op.indptr))
+    key = (row // 2) * m + op.indices
+    union = np.unique(key)
+    values = np.zeros((union.size, 2))
+    values[np.searchsorted(union, key), row % 2] = op.data
+    indptr, indices, got = merge_row_pairs(op.indptr.astype(np.int64), op.indices.astype(np.int64), op.data)
+    assert np.array_equal(indptr, np.searchsorted(union, np.arange(n + 1) * m))
+    assert np.array_equal(indices, union % m) and got.tobytes() == values.tobytes()
