@@ -115,7 +115,14 @@ def _galerkin_rows(a_indptr, a_indices, p_indptr, p_indices, p_data, n_c, symmet
                         touched[m] = big_j
                         m += 1
                     count[big_j] += 1
-        cols = np.sort(touched[:m])
+        for q in range(1, m):                       # insertion sort in place (tens of columns)
+            big_j = touched[q]
+            p = q - 1
+            while p >= 0 and touched[p] > big_j:
+                touched[p + 1] = touched[p]
+                p -= 1
+            touched[p + 1] = big_j
+        cols = touched
         for q in range(m):
             big_j = cols[q]
             c_cols[nnz + q] = big_j
