@@ -18,6 +18,7 @@ from .kernels import (
     interpolate_faces_1,
     interpolate_faces_2,
     merge_row_pairs,
+    normal_matrices,
     paired_row_gradient,
     quadratic_face_rows,
     spd_condition_bound,
@@ -359,7 +360,7 @@ def quadratic_operators(mesh: FVMesh) -> dict:
     r2 = np.einsum("ckj,ckj->ck", s, s)
     w = np.where(valid, 1.0 / np.where(valid, r2, 1.0), 0.0)
     aw = a * w[..., None]
-    normal = np.einsum("cki,ckj->cij", aw, a)
+    normal = normal_matrices(aw, a)                                   # np.einsum("cki,ckj->cij", aw, a)
     ok = counts >= 6
     # the condition number only decides ``ok``: a Cholesky bound (at most 25x the condition number) places
     # almost every cell far below the limit; the SVD's value decides the rest, as it decided every cell

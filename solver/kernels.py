@@ -921,3 +921,20 @@ def merge_row_pairs(indptr, indices, data):
             k += 1
         out_ptr[i + 1] = k
     return out_ptr, out_idx[:k].copy(), values[:k].copy()
+
+
+@njit(cache=True)
+def normal_matrices(aw, a):
+    """``(n, m, m)`` normal matrices ``sum_k aw[c, k, i] a[c, k, j]`` of stacked least-squares systems
+    ``(n, K, m)``: ``np.einsum("cki,ckj->cij", aw, a)``, one running sum over ``k`` per entry, as einsum's loop
+    sums them (bitwise on the quadratic fits of the blade meshes and random stacks of K 12-33), 4-5x faster."""
+    n, K, m = a.shape
+    out = np.empty((n, m, m))
+    for c in range(n):
+        for i in range(m):
+            for j in range(m):
+                s = 0.0
+                for k in range(K):
+                    s += aw[c, k, i] * a[c, k, j]
+                out[c, i, j] = s
+    return out

@@ -684,3 +684,15 @@ def test_merge_row_pairs_equals_unique_form():
     indptr, indices, got = merge_row_pairs(op.indptr.astype(np.int64), op.indices.astype(np.int64), op.data)
     assert np.array_equal(indptr, np.searchsorted(union, np.arange(n + 1) * m))
     assert np.array_equal(indices, union % m) and got.tobytes() == values.tobytes()
+
+
+@pytest.mark.parametrize("k", [6, 13, 31])
+def test_normal_matrices_equal_einsum(k):
+    """The stacked normal matrices of the quadratic fit against ``np.einsum("cki,ckj->cij")`` (bitwise)."""
+    from solver.kernels import normal_matrices
+
+    rng = np.random.default_rng(k)
+    a = rng.standard_normal((200, k, 5))
+    a[:, k // 2:] *= rng.random((200, 1, 1)) < 0.5               # zero-padded stencils, as the fit's
+    aw = a * rng.uniform(0.1, 3.0, (200, k, 1))
+    assert normal_matrices(aw, a).tobytes() == np.einsum("cki,ckj->cij", aw, a).tobytes()
