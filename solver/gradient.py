@@ -21,6 +21,7 @@ from .kernels import (
     normal_matrices,
     paired_row_gradient,
     quadratic_face_rows,
+    quadratic_fit_tables,
     spd_condition_bound,
     stencil_operator_rows,
     unsigned,
@@ -355,11 +356,9 @@ def quadratic_operators(mesh: FVMesh) -> dict:
     valid[cell_of, slot] = True
     xall = np.concatenate([mesh.centroid, mesh.face_centre[ni:]])
     h = np.sqrt(mesh.volume)
-    s = np.where(valid[..., None], (xall[other] - mesh.centroid[:, None, :]) / h[:, None, None], 0.0)
-    a = np.stack([s[..., 0], s[..., 1], 0.5 * s[..., 0] ** 2, s[..., 0] * s[..., 1], 0.5 * s[..., 1] ** 2], -1)
-    r2 = np.einsum("ckj,ckj->ck", s, s)
-    w = np.where(valid, 1.0 / np.where(valid, r2, 1.0), 0.0)
-    aw = a * w[..., None]
+    # s = (x - x_P) / h (0 off the stencil), a = [s_x, s_y, s_x²/2, s_x s_y, s_y²/2], aw = a / |s|²:
+    # kernels.quadratic_fit_tables (the numpy form's operations, bitwise)
+    a, aw = quadratic_fit_tables(xall, mesh.centroid, h, other, valid)
     normal = normal_matrices(aw, a)                                   # np.einsum("cki,ckj->cij", aw, a)
     ok = counts >= 6
     # the condition number only decides ``ok``: a Cholesky bound (at most 25x the condition number) places

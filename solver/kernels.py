@@ -938,3 +938,30 @@ def normal_matrices(aw, a):
                     s += aw[c, k, i] * a[c, k, j]
                 out[c, i, j] = s
     return out
+
+
+@njit(cache=True)
+def quadratic_fit_tables(xall, centroid, h, other, valid):
+    """The quadratic fit's padded design matrix ``a (nc, kmax, 5)`` and its weighted copy ``aw``: with ``s`` the
+    scaled offsets ``(xall[other] - x_P) / h`` (0 where not ``valid``), ``a = [s_x, s_y, s_x²/2, s_x s_y,
+    s_y²/2]``, ``aw = a / |s|²`` (0 where not valid) — :func:`solver.gradient.quadratic_operators`' numpy
+    lines, their operations in their order (bitwise), without their seven ``(nc, kmax, ·)`` temporaries."""
+    nc, kmax = other.shape
+    a = np.zeros((nc, kmax, 5))
+    aw = np.zeros((nc, kmax, 5))
+    for c in range(nc):
+        for k in range(kmax):
+            if not valid[c, k]:
+                continue
+            o = other[c, k]
+            sx = (xall[o, 0] - centroid[c, 0]) / h[c]
+            sy = (xall[o, 1] - centroid[c, 1]) / h[c]
+            a[c, k, 0] = sx
+            a[c, k, 1] = sy
+            a[c, k, 2] = 0.5 * (sx * sx)
+            a[c, k, 3] = sx * sy
+            a[c, k, 4] = 0.5 * (sy * sy)
+            w = 1.0 / (sx * sx + sy * sy)
+            for q in range(5):
+                aw[c, k, q] = a[c, k, q] * w
+    return a, aw

@@ -696,3 +696,21 @@ def test_normal_matrices_equal_einsum(k):
     a[:, k // 2:] *= rng.random((200, 1, 1)) < 0.5               # zero-padded stencils, as the fit's
     aw = a * rng.uniform(0.1, 3.0, (200, k, 1))
     assert normal_matrices(aw, a).tobytes() == np.einsum("cki,ckj->cij", aw, a).tobytes()
+
+
+def test_quadratic_fit_tables_equal_numpy_form(mesh):
+    """The quadratic fit's padded design matrices against the numpy lines they replace (bitwise)."""
+    from solver.kernels import quadratic_fit_tables
+
+    rng = np.random.default_rng(7)
+    nc, kmax = mesh.n_cells, 14
+    xall = np.concatenate([mesh.centroid, mesh.face_centre[mesh.n_internal:]])
+    other = rng.integers(0, len(xall), (nc, kmax))
+    other[other == np.arange(nc)[:, None]] = nc                  # never the cell itself
+    valid = rng.random((nc, kmax)) < 0.7
+    h = np.sqrt(mesh.volume)
+    s = np.where(valid[..., None], (xall[other] - mesh.centroid[:, None, :]) / h[:, None, None], 0.0)
+    a = np.stack([s[..., 0], s[..., 1], 0.5 * s[..., 0] ** 2, s[..., 0] * s[..., 1], 0.5 * s[..., 1] ** 2], -1)
+    w = np.where(valid, 1.0 / np.where(valid, np.einsum("ckj,ckj->ck", s, s), 1.0), 0.0)
+    got_a, got_aw = quadratic_fit_tables(xall, mesh.centroid, h, other, valid)
+    assert got_a.tobytes() == a.tobytes() and got_aw.tobytes() == (a * w[..., None]).tobytes()
