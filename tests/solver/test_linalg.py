@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 import scipy.sparse as sp
 
-from solver.amg import GalerkinHierarchy, galerkin_map, galerkin_map_numpy
+from solver.amg import GalerkinHierarchy, galerkin_map
 from solver.linalg import AMG_HIERARCHIES, FVPattern, LinearSystem, VCycle, _amg_cg, _seeded, _with_fast_smoothers
 from solver.validation.meshes import square_mesh
 
@@ -49,6 +49,54 @@ def test_galerkin_map_equals_triple_product(mesh, symmetric):
         assert abs(mine - ref).max() <= 1e-13 * abs(ref).max()
         assert symmetric == (mirror.shape[1] > 0)
         indptr, indices, data = c_indptr, c_indices, coarse
+
+
+def galerkin_map_numpy(indptr: np.ndarray, indices: np.ndarray, P: sp.csr_matrix, symmetric: bool = False):
+    """The coarse operator ``P^T A P`` as a linear map of ``A``'s stored values, for a fixed pattern of ``A``
+    (CSR ``indptr``, ``indices``) and a fixed interpolation ``P`` (n x n_c).
+
+    Returns ``(G, rows, c_indptr, c_indices, mirror)``: ``G`` CSR with ``coarse_data[rows] = G @ A.data``,
+    the coarse CSR pattern (sorted columns; every product that can be non-zero is stored, also where values
+    cancel, so the pattern does not depend on ``A``'s values), and ``mirror`` ``(2, m)``: the coarse slots
+    filled by copying, ``coarse_data[mirror[0]] = coarse_data[mirror[1]]``. ``symmetric``: ``A`` is
+    symmetric (values and pattern), so ``G`` forms the entries ``I <= J`` only and the others are mirrored
+    (half the products; the coarse matrix exactly symmetric); else ``rows`` is every slot and ``mirror``
+    empty. The sort-based form that :func:`solver.amg.galerkin_map` replaced, kept as its reference."""
+    n = indptr.size - 1
+    rows = np.repeat(np.arange(n), np.diff(indptr))
+    cols = np.asarray(indices, dtype=np.int64)
+    P = P.tocsr()
+    p_len = np.diff(P.indptr)
+    len_i, len_j = p_len[rows], p_len[cols]
+    count = len_i * len_j                           # products P[i, I] A[i, j] P[j, J] per entry (i, j)
+    entry = np.repeat(np.arange(cols.size), count)
+    offset = np.arange(count.sum()) - np.repeat(np.cumsum(count) - count, count)
+    per_row = len_j[entry]
+    slot_i = P.indptr[rows[entry]] + offset // per_row
+    slot_j = P.indptr[cols[entry]] + offset % per_row
+    n_c = P.shape[1]
+    big_i, big_j = P.indices[slot_i].astype(np.int64), P.indices[slot_j].astype(np.int64)
+    coarse, position = np.unique(big_i * n_c + big_j, return_inverse=True)
+    position = position.ravel()
+    c_rows, c_cols = coarse // n_c, coarse % n_c
+    c_indptr = np.concatenate([[0], np.cumsum(np.bincount(c_rows, minlength=n_c))])
+    if symmetric:
+        formed = np.flatnonzero(c_rows <= c_cols)
+        copied = np.flatnonzero(c_rows > c_cols)
+        source = np.searchsorted(coarse, c_cols[copied] * n_c + c_rows[copied])
+        if not np.array_equal(coarse[source], c_cols[copied] * n_c + c_rows[copied]):
+            raise ValueError("the coarse pattern is not symmetric")
+        keep = big_i <= big_j
+        row_of = np.full(coarse.size, -1, dtype=np.int64)
+        row_of[formed] = np.arange(formed.size)
+        G = sp.csr_matrix((P.data[slot_i[keep]] * P.data[slot_j[keep]], (row_of[position[keep]], entry[keep])),
+                          shape=(formed.size, cols.size))
+        mirror = np.stack([copied, source])
+    else:
+        formed = np.arange(coarse.size)
+        G = sp.csr_matrix((P.data[slot_i] * P.data[slot_j], (position, entry)), shape=(coarse.size, cols.size))
+        mirror = np.zeros((2, 0), dtype=np.int64)
+    return G, formed, c_indptr, c_cols, mirror
 
 
 @pytest.mark.parametrize("symmetric", [False, True])
