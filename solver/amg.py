@@ -25,7 +25,7 @@ import scipy.sparse as sp
 from numba import njit
 from scipy.linalg.lapack import dpotrf, dpotrs
 
-from .kernels import csr_matvec, csr_residual, gauss_seidel_sweeps, unsigned
+from .kernels import csr_matvec, csr_residual, gauss_seidel_sweeps, sort_prefix, unsigned
 
 
 def galerkin_map(indptr: np.ndarray, indices: np.ndarray, P: sp.csr_matrix, symmetric: bool = False):
@@ -115,13 +115,7 @@ def _galerkin_rows(a_indptr, a_indices, p_indptr, p_indices, p_data, n_c, symmet
                         touched[m] = big_j
                         m += 1
                     count[big_j] += 1
-        for q in range(1, m):                       # insertion sort in place (tens of columns)
-            big_j = touched[q]
-            p = q - 1
-            while p >= 0 and touched[p] > big_j:
-                touched[p + 1] = touched[p]
-                p -= 1
-            touched[p + 1] = big_j
+        sort_prefix(touched, m)
         cols = touched
         for q in range(m):
             big_j = cols[q]

@@ -770,6 +770,19 @@ def spd_condition_bound(a, use):
 
 
 @njit(cache=True)
+def sort_prefix(a, m):
+    """Sort ``a[:m]`` in place: an insertion sort, for the tens of mostly sorted column indices of one sparse
+    row (no new array per row, as ``np.sort`` would make)."""
+    for q in range(1, m):
+        x = a[q]
+        p = q - 1
+        while p >= 0 and a[p] > x:
+            a[p + 1] = a[p]
+            p -= 1
+        a[p + 1] = x
+
+
+@njit(cache=True)
 def quadratic_face_rows(n_all, sides, weights, cells, coefficients, ptrs, idxs, vals):
     """The face-average operator of :func:`solver.gradient.quadratic_operators` as CSR ``(indptr, indices,
     data)``, ``(n_faces, n_all)``: for each face, the sum over both sides ``s`` (owner, neighbour) of ``w_s``
@@ -811,13 +824,7 @@ def quadratic_face_rows(n_all, sides, weights, cells, coefficients, ptrs, idxs, 
                         touched[m] = j
                         m += 1
                     acc[j] += c * (w * vals[t][jj])
-        for q in range(1, m):                   # insertion sort in place (tens of columns, runs mostly sorted)
-            j = touched[q]
-            p = q - 1
-            while p >= 0 and touched[p] > j:
-                touched[p + 1] = touched[p]
-                p -= 1
-            touched[p + 1] = j
+        sort_prefix(touched, m)
         for q in range(m):
             j = touched[q]
             if acc[j] != 0.0:

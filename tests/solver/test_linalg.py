@@ -52,16 +52,8 @@ def test_galerkin_map_equals_triple_product(mesh, symmetric):
 
 
 def galerkin_map_numpy(indptr: np.ndarray, indices: np.ndarray, P: sp.csr_matrix, symmetric: bool = False):
-    """The coarse operator ``P^T A P`` as a linear map of ``A``'s stored values, for a fixed pattern of ``A``
-    (CSR ``indptr``, ``indices``) and a fixed interpolation ``P`` (n x n_c).
-
-    Returns ``(G, rows, c_indptr, c_indices, mirror)``: ``G`` CSR with ``coarse_data[rows] = G @ A.data``,
-    the coarse CSR pattern (sorted columns; every product that can be non-zero is stored, also where values
-    cancel, so the pattern does not depend on ``A``'s values), and ``mirror`` ``(2, m)``: the coarse slots
-    filled by copying, ``coarse_data[mirror[0]] = coarse_data[mirror[1]]``. ``symmetric``: ``A`` is
-    symmetric (values and pattern), so ``G`` forms the entries ``I <= J`` only and the others are mirrored
-    (half the products; the coarse matrix exactly symmetric); else ``rows`` is every slot and ``mirror``
-    empty. The sort-based form that :func:`solver.amg.galerkin_map` replaced, kept as its reference."""
+    """:func:`solver.amg.galerkin_map` in the sort-based numpy form it replaced (``np.unique`` over every
+    product's key), kept as its reference: the same returns."""
     n = indptr.size - 1
     rows = np.repeat(np.arange(n), np.diff(indptr))
     cols = np.asarray(indices, dtype=np.int64)
