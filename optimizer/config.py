@@ -274,6 +274,8 @@ SETTING_RULES: dict[str, dict[str, Any]] = {
     "stop_tol": {"ge": 1e-12, "le": 1, "why": _RELATIVE},
     "early_periods": {"gt": 0, "le": 1000, "why": "oscillation periods spanned by each early-stop window; "
                       "None: windows of classify_window"},
+    "early_skip": {"ge": 0, "le": 100_000, "why": "start-up iterations skipped before the early stop's two windows "
+                   "(at most one window); None: one window"},
     "pressure_gradient": {"choices": ("least_squares", "green_gauss")},
     "divergence_factor": {"gt": 1, "le": 1e12, "why": "a residual this many times its minimum is divergence; "
                           "1e12 leaves no margin in double precision"},
@@ -320,8 +322,8 @@ class _SolverBase(_Frozen):
     documented there; ``docs/evaluation.md`` lists them): algorithm, alpha_u, alpha_p, startup_iterations,
     startup_alpha_u, convection,
     limiter, limiter_k, max_iter, tol, monitor_tol, monitor_window, classify_window, classify_tol,
-    stall_tol, stop_window, stop_tol, early_classify, early_periods, pressure_gradient, divergence_factor,
-    velocity_limit.
+    stall_tol, stop_window, stop_tol, early_classify, early_periods, early_skip, pressure_gradient,
+    divergence_factor, velocity_limit.
     """
 
     model: Literal["sst", "laminar"] = "sst"

@@ -131,10 +131,11 @@ def established(monitors: dict, it: int, cfg: SimpleSettings):
     None.
 
     Two consecutive windows of ``w`` iterations — the last ``w`` and the ``w`` before them — are classified
-    (:func:`solver.convergence.classify`) from ``3 w`` iterations on (the first window is the start-up,
-    skipped), checked every 25 iterations. ``w`` is :func:`early_window`: ``early_periods`` times the
-    longest period found over the last ``classify_window`` iterations, between ``classify_window / 2`` and
-    ``classify_window`` (``classify_window`` when no period is found or ``early_periods`` is None). The
+    (:func:`solver.convergence.classify`) from ``2 w + min(early_skip, w)`` iterations on (the start-up
+    skipped: :func:`first_early_check`), checked every 25 iterations. ``w`` is :func:`early_window`:
+    ``early_periods`` times the longest period found over the last ``classify_window`` iterations, between
+    ``classify_window / 2`` and ``classify_window`` (``classify_window`` when no period is found or
+    ``early_periods`` is None). The
     solve stops with the last window's class and figures — what it would get at ``max_iter`` — when both
     windows agree and, in every monitor that is not stationary, the behaviour is established and its
     decay from one window to the next, extrapolated to ``max_iter``, still leaves it above ``classify_tol``:
@@ -160,11 +161,11 @@ def established(monitors: dict, it: int, cfg: SimpleSettings):
     with the amplitude halving every 100 iterations) stops early as oscillating by its settled mean. Off
     when ``early_classify`` is False."""
     w_cap = cfg.classify_window
-    if not cfg.early_classify or it % 25 or it < 3 * min_early_window(cfg):
+    if not cfg.early_classify or it % 25 or it < first_early_check(min_early_window(cfg), cfg):
         return None
     arrays = {k: np.asarray(v) for k, v in monitors.items()}
     w = early_window(arrays, cfg)
-    if it < 3 * w:
+    if it < first_early_check(w, cfg):
         return None
     now = classify(arrays, window=w, tol=cfg.classify_tol)
     if now.status not in ("oscillating", "not_converged"):
@@ -181,6 +182,12 @@ def established(monitors: dict, it: int, cfg: SimpleSettings):
     if w != w_cap:
         head += f" (two windows of {w}: {cfg.early_periods:g} periods)"
     return now.status, f"{head}; {now.reason}", now
+
+
+def first_early_check(w: int, cfg: SimpleSettings) -> int:
+    """The first iteration at which windows of ``w`` may stop a solve: two windows after the start-up,
+    ``min(early_skip, w)`` iterations (a whole window when ``early_skip`` is None)."""
+    return 2 * w + (w if cfg.early_skip is None else min(cfg.early_skip, w))
 
 
 def min_early_window(cfg: SimpleSettings) -> int:

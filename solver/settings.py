@@ -81,8 +81,9 @@ class SimpleSettings:
         the lift) and is then within a few 1e-3 of its converged value. The classification and the
         ``tol`` test still use every monitor.
     early_classify: stop a solve whose oscillation or drift is established over two classification
-        windows (from 3 windows on, checked every 25 iterations) with the class and figures it would get at
-        ``max_iter`` (:func:`solver.monitors.established`); False: run such solves to ``max_iter``.
+        windows (after a start-up allowance, ``early_skip``; checked every 25 iterations) with the class and
+        figures it would get at ``max_iter`` (:func:`solver.monitors.established`); False: run such solves
+        to ``max_iter``.
     early_periods: the two windows of that early stop span this many periods of the oscillation (the
         longest of the monitors' periods over the last ``classify_window`` iterations), between
         ``classify_window / 2`` and ``classify_window`` iterations, so that a short-period oscillation is
@@ -92,6 +93,13 @@ class SimpleSettings:
         (1.96x the converged median), with the same classes and window means within half an amplitude of
         those at the cap; 6 stopped a converged blade (random blade 20) early as oscillating
         (docs/performance.md, "Unsettled blades (session 6)"). None: windows of ``classify_window``.
+    early_skip: the start-up skipped before those two windows: ``min(early_skip, w)`` iterations for
+        windows of ``w``, so the first check comes at ``2 w + min(early_skip, w)`` (None: a whole window,
+        ``3 w``, session 6). Default 100: the gentle start-up (``startup_iterations``) and the transient after
+        it are over by then on the random blades at medium (lift within 0.5 % of its final value after
+        50-210 iterations); replayed on the 22 unsettled blades' 2 000-iteration histories, 100-175 all give
+        the same stops, the same classes, and window means within half an amplitude of the cap's on 20 of 22
+        (19 with a whole window) (docs/performance.md, "The early stop's start-up allowance (session 9)").
     divergence_factor: a residual above 1 and this many times its running minimum means divergence.
     velocity_limit: a cell velocity component above this (m/s) means divergence.
     pressure_gradient: gradient of p in the momentum source and in the Rhie–Chow interpolation:
@@ -126,6 +134,7 @@ class SimpleSettings:
     stop_monitors: tuple[str, ...] = ()
     early_classify: bool = True
     early_periods: float | None = 8.0
+    early_skip: int | None = 100
     pressure_gradient: str = "least_squares"
     blas_threads: int | None = 1
     divergence_factor: float = 1e5

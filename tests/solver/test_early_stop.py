@@ -1,5 +1,6 @@
 """The early stop of an established oscillation with windows scaled to its period
-(:func:`solver.monitors.established`, :func:`solver.monitors.early_window`; ``SimpleSettings.early_periods``)."""
+(:func:`solver.monitors.established`, :func:`solver.monitors.early_window`; ``SimpleSettings.early_periods``,
+``early_skip``)."""
 
 import dataclasses
 
@@ -52,17 +53,28 @@ def test_a_short_period_oscillation_stops_at_three_short_windows_with_that_windo
     assert cls.mean == ref.mean and cls.amplitude == ref.amplitude and cls.period == ref.period
     cap = classify(h, window=200, tol=1e-3)                         # the figures at the cap: the same mean
     assert abs(cls.mean["c_max"] - cap.mean["c_max"]) <= 1e-3 * 25.0
-    assert _first_stop(h, FIXED, 2000) == 600                       # the fixed windows: 3 x 200
+    assert _first_stop(h, FIXED, 2000) == 500                       # the fixed windows: 2 x 200 + 100
     assert established(_lists({k: v[:310] for k, v in h.items()}), 310, CFG) is None   # checked every 25
 
 
-def test_a_long_period_keeps_the_classify_window_and_noise_waits_three_classify_windows():
+def test_a_long_period_keeps_the_classify_window_and_noise_waits_two_windows_after_the_start_up():
     it = np.arange(2000)
     h = _hist(25.0 + 0.5 * np.sin(2 * np.pi * it / 37.0))
-    assert _first_stop(h, CFG, 2000) == 600
+    assert _first_stop(h, CFG, 2000) == 500                          # 2 x 200 + early_skip 100
     rng = np.random.default_rng(1)
     noisy = _hist(25.0 + 0.05 * rng.standard_normal(2000))         # no period: classify_window
-    assert _first_stop(noisy, CFG, 2000) == 600
+    assert _first_stop(noisy, CFG, 2000) == 500
+    whole = dataclasses.replace(CFG, early_skip=None)               # session 6: a whole window skipped
+    assert _first_stop(h, whole, 2000) == 600 and _first_stop(noisy, whole, 2000) == 600
+
+
+def test_the_start_up_allowance_is_at_most_one_window():
+    it = np.arange(2000)
+    short = _hist(25.0 + 0.5 * np.sin(2 * np.pi * it / 12.0))       # windows of 100
+    assert _first_stop(short, dataclasses.replace(CFG, early_skip=400), 2000) == 300
+    assert _first_stop(short, dataclasses.replace(CFG, early_skip=0), 2000) == 200
+    ringing = _hist(25.0 + 0.5 * np.exp(-it / 60.0) * np.sin(2 * np.pi * it / 12.0) - 0.4 * np.exp(-it / 90.0))
+    assert _first_stop(ringing, CFG, 1000) is None                   # a decaying start-up is still not stopped
 
 
 def test_a_short_window_does_not_stop_a_decaying_transient_or_a_mean_that_still_moves():

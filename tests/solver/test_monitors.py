@@ -73,7 +73,8 @@ def test_established_oscillation_stops_with_the_classification_of_the_last_windo
     ref = classify({k: np.asarray(v) for k, v in _hist(x).items()}, window=200, tol=1e-3)
     assert cls.mean == ref.mean and cls.amplitude == ref.amplitude and cls.period == ref.period
     assert established(_hist(x[:599]), 599, CFG) is None                        # checked every 50 iterations
-    assert established(_hist(x[:550]), 550, CFG) is None                        # before 3 windows
+    assert established(_hist(x[:475]), 475, CFG) is None                        # before 2 windows + 100
+    assert established(_hist(x[:500]), 500, CFG)[0] == "oscillating"
 
 
 def test_an_oscillation_with_a_settled_mean_stops_even_if_it_would_decay_before_max_iter():
