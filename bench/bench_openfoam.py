@@ -7,14 +7,19 @@ up the same conditions (uniform inlet C0 with 5 % intensity and nu_t/nu = 10, ou
 and bottom, blade wall with Spalding wall functions as millfoil's ``automatic``), runs ``simpleFoam``
 (SIMPLEC ``consistent``, α_U 0.9, bounded linearUpwind, GAMG) and millfoil (its defaults), and prints per
 case: iterations to lift within 0.5 % and 0.1 % of the final value, time per iteration, time to those
-points, C_L and the ratio millfoil / OpenFOAM. Times are CPU times of one core (OpenFOAM's ``ExecutionTime``,
-this process's ``time.process_time`` for millfoil, its problem set-up included), which another job on the
-machine inflates far less than the wall clock (printed beside them).
+points, C_L and the ratio millfoil / OpenFOAM. Times are CPU times of one core, which another job on the
+machine inflates far less than the wall clock (printed beside them). The time to a point is each code's CPU
+clock at the end of that iteration, its own set-up included: OpenFOAM's ``ExecutionTime`` (from the start of
+``simpleFoam``: reading the mesh and fields, building its solvers), millfoil's ``time.process_time`` from the
+start of its solve stage (the problem set-up, the reconstruction operators, the AMG set-up). Neither code's
+mesh generation or case writing is counted. ``--repeats N`` runs both codes N times on each case, alternating,
+and prints each code's median time (the iterations are deterministic); the ratio is that of the medians.
 
 OpenFOAM comes from Debian's ``openfoam`` package; the script runs ``apt-get install -y openfoam`` where
 ``simpleFoam`` is missing (``--no-install`` to skip; the OpenFOAM columns then say why they are empty).
 
-    OMP_NUM_THREADS=1 python bench/bench_openfoam.py --levels coarse medium --blades 2 --iterations 600
+    OMP_NUM_THREADS=1 python bench/bench_openfoam.py --levels coarse medium --blades 2 --iterations 600 \
+        --repeats 3
 """
 
 from __future__ import annotations
@@ -147,32 +152,43 @@ def run_openfoam(directory: Path, half_dynamic: float) -> dict:
     n = len(fy)
     per_it = (exec_times[-1] - exec_times[0]) / max(len(exec_times) - 1, 1)
     wall_it = (clock_times[-1] - clock_times[0]) / max(len(clock_times) - 1, 1) if clock_times else float("nan")
+    # ExecutionTime is printed with 2 decimals (10 ms): fine against seconds to a point, not per iteration
     return {"iterations": n, "ms_per_iteration": 1e3 * per_it, "wall_ms_per_iteration": 1e3 * wall_it,
-            "c_l": fy[-1] / half_dynamic, "fy": fy, "wall_s": wall}
+            "c_l": fy[-1] / half_dynamic, "fy": fy, "cpu": np.array(exec_times[:n]), "wall_s": wall}
 
 
 def run_millfoil(config, fvmesh) -> dict:
-    """millfoil's solve stage; ``ms_per_iteration``: CPU time of this process over the whole stage (problem
-    set-up included) per iteration, as OpenFOAM's ``ExecutionTime`` is its CPU time; the wall clock of the
-    iterations beside it."""
+    """millfoil's solve stage; ``cpu``: this process's CPU time at the end of each iteration from the start
+    of the stage (problem set-up included), as OpenFOAM's ``ExecutionTime`` counts from its start;
+    ``ms_per_iteration``: the whole stage's CPU time per iteration; the wall clock of the iterations beside
+    it."""
     from optimizer.pipeline import solve_flow
 
+    clock: list[float] = []
     c0 = time.process_time()
-    flow = solve_flow(config, fvmesh)
+    flow = solve_flow(config, fvmesh, log=lambda _line: clock.append(time.process_time() - c0), every=1)
     cpu = time.process_time() - c0
     fy = np.asarray(flow.monitors["fy:blade"])
     return {"iterations": flow.iterations, "ms_per_iteration": 1e3 * cpu / flow.iterations,
             "wall_ms_per_iteration": 1e3 * flow.wall_time / flow.iterations, "fy": fy, "status": flow.status,
-            "wall_s": flow.wall_time}
+            "cpu": np.array(clock), "wall_s": flow.wall_time}
 
 
 def summarise(run: dict, half_dynamic: float) -> dict:
-    fy = run["fy"]
+    """``run`` with C_L, the iterations to lift within 0.5 % / 0.1 % of its final value and the CPU
+    seconds at the end of those iterations (``s_0_5``, ``s_0_1``)."""
+    fy, cpu = run["fy"], run["cpu"]
     out = dict(run, c_l=fy[-1] / half_dynamic, lift_0_5=iterations_within(fy, 5e-3),
                lift_0_1=iterations_within(fy, 1e-3))
-    out["s_0_5"] = out["lift_0_5"] * run["ms_per_iteration"] / 1e3
-    out["s_0_1"] = out["lift_0_1"] * run["ms_per_iteration"] / 1e3
+    out["s_0_5"] = float(cpu[out["lift_0_5"] - 1])
+    out["s_0_1"] = float(cpu[out["lift_0_1"] - 1])
     return out
+
+
+def median_run(runs: list[dict]) -> dict:
+    """The first of ``runs`` (the iterations are deterministic) with each time the median over ``runs``."""
+    keys = ("ms_per_iteration", "wall_ms_per_iteration", "s_0_5", "s_0_1")
+    return dict(runs[0], **{k: float(np.median([r[k] for r in runs])) for k in keys}, repeats=len(runs))
 
 
 def main() -> None:
@@ -182,13 +198,16 @@ def main() -> None:
     parser.add_argument("--iterations", type=int, default=600, help="simpleFoam iterations (it never meets 1e-6)")
     parser.add_argument("--work", type=Path, default=ROOT / "runs" / "bench_openfoam")
     parser.add_argument("--no-install", action="store_true")
+    parser.add_argument("--repeats", type=int, default=1,
+                        help="runs of each code per case, alternating; times are the medians")
     args = parser.parse_args()
     from optimizer.config import Config
     from optimizer.pipeline import _meshes, blade_profile
 
     why = ensure_openfoam(not args.no_install)
     print(f"# load average {os.getloadavg()[0]:.1f}, OMP_NUM_THREADS={os.environ.get('OMP_NUM_THREADS')}, "
-          f"{time.strftime('%Y-%m-%d %H:%M')}; OpenFOAM: {why or shutil.which('simpleFoam')}")
+          f"{time.strftime('%Y-%m-%d %H:%M')}; OpenFOAM: {why or shutil.which('simpleFoam')}; "
+          f"{args.repeats} run(s) per code and case, medians")
     print("| case | code | iterations | lift 0.5 % / 0.1 % | CPU ms / iteration (wall) | CPU s to 0.5 % / 0.1 % "
           "| C_L | ratio (0.1 %, CPU) |")
     print("| --- | --- | --- | --- | --- | --- | --- | --- |")
@@ -197,24 +216,30 @@ def main() -> None:
         flow = config.flow
         half_dynamic = 0.5 * flow.density * flow.speed**2 * config.blade.blade_spec().values["L"]
         _, fvmesh = _meshes(config, blade_profile(config))
-        mf = summarise(run_millfoil(config, fvmesh), half_dynamic)
-        of = None
+        case = args.work / name.replace(" ", "_")
         if why is None:
-            case = args.work / name.replace(" ", "_")
             shutil.rmtree(case, ignore_errors=True)
             write_polymesh(fvmesh, case, BLADE_PATCH_TYPES)
             write_case(case, flow.speed, flow.density, flow.viscosity, flow.intensity, flow.viscosity_ratio,
                        args.iterations)
-            res = run_openfoam(case, half_dynamic)
-            of = summarise(res, half_dynamic) if "error" not in res else res
+        mf_runs, of_runs = [], []
+        for _ in range(max(args.repeats, 1)):
+            mf_runs.append(summarise(run_millfoil(config, fvmesh), half_dynamic))
+            if why is None:
+                shutil.rmtree(case / "postProcessing", ignore_errors=True)
+                res = run_openfoam(case, half_dynamic)
+                of_runs.append(summarise(res, half_dynamic) if "error" not in res else res)
+        mf = median_run(mf_runs)
+        failed = next((r for r in of_runs if "error" in r), None)
+        of = failed or (median_run(of_runs) if of_runs else None)
         for code, r in (("millfoil", mf), ("OpenFOAM", of)):
             if r is None or "error" in r:
                 print(f"| {name} | {code} | — ({why or r['error']}) | | | | | |")
                 continue
             ratio = "" if code == "OpenFOAM" or of is None or "error" in of else f"{r['s_0_1'] / of['s_0_1']:.2f}"
             print(f"| {name} | {code} | {r['iterations']} | {r['lift_0_5']} / {r['lift_0_1']} | "
-                  f"{r['ms_per_iteration']:.1f} ({r['wall_ms_per_iteration']:.1f}) | {r['s_0_5']:.1f} / "
-                  f"{r['s_0_1']:.1f} | {r['c_l']:.4f} | {ratio} |",
+                  f"{r['ms_per_iteration']:.1f} ({r['wall_ms_per_iteration']:.1f}) | {r['s_0_5']:.2f} / "
+                  f"{r['s_0_1']:.2f} | {r['c_l']:.4f} | {ratio} |",
                   flush=True)
 
 
