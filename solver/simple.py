@@ -195,6 +195,27 @@ def _blas_threads(n):
     return threadpool_limits(limits=n, user_api="blas")
 
 
+def iteration_alpha_u(settings: SimpleSettings, it: int) -> float:
+    """The momentum relaxation of iteration ``it`` (from 1): ``min(alpha_u, startup_alpha_u)`` for the first
+    ``startup_iterations``, then for ``startup_ramp`` iterations rising linearly (iteration
+    ``startup_iterations + j`` at ``a0 + (alpha_u - a0) j / (startup_ramp + 1)``), ``alpha_u`` after them."""
+    a0 = min(settings.alpha_u, settings.startup_alpha_u)
+    j = it - settings.startup_iterations
+    if j <= 0:
+        return a0
+    if j > settings.startup_ramp:
+        return settings.alpha_u
+    return a0 + (settings.alpha_u - a0) * j / (settings.startup_ramp + 1)
+
+
+def _startup_settings(settings: SimpleSettings, current: SimpleSettings, it: int) -> SimpleSettings:
+    """``current`` where iteration ``it``'s relaxation (:func:`iteration_alpha_u`) is its own, else a new one."""
+    if it > settings.startup_iterations + settings.startup_ramp:
+        return settings
+    alpha = iteration_alpha_u(settings, it)
+    return current if current.alpha_u == alpha else dataclasses.replace(settings, alpha_u=alpha)
+
+
 def _iterate(problem: Problem, settings: SimpleSettings, state: FlowState | None, callback) -> FlowResults:
     """The outer loop of :func:`solve_steady`."""
     t0 = time.perf_counter()
@@ -207,8 +228,9 @@ def _iterate(problem: Problem, settings: SimpleSettings, state: FlowState | None
     solver_state: dict = {}
     status, message = "not_converged", f"reached max_iter = {settings.max_iter}"
     classification = None
-    # the impulsive start's first iterations, gentler (SimpleSettings.startup_iterations)
-    startup = dataclasses.replace(settings, alpha_u=min(settings.alpha_u, settings.startup_alpha_u))
+    # the impulsive start's first iterations, gentler (SimpleSettings.startup_iterations), then startup_ramp
+    # iterations rising linearly to alpha_u; a settings object is built only where alpha_u changes
+    current = settings
     it = 0
     for it in range(1, settings.max_iter + 1):
         # the iterate to fall back to: outer_iteration replaces the state's arrays and never writes into
@@ -218,8 +240,8 @@ def _iterate(problem: Problem, settings: SimpleSettings, state: FlowState | None
         solver_state["iteration"] = it
         try:
             with np.errstate(all="ignore"):
-                res = outer_iteration(problem, s, startup if it <= settings.startup_iterations else settings,
-                                      solver_state)
+                current = _startup_settings(settings, current, it)
+                res = outer_iteration(problem, s, current, solver_state)
         except (DivergenceError, ValueError, np.linalg.LinAlgError) as exc:
             status, message = "diverged", f"diverged at iteration {it}: {exc}"
             s = last_good
