@@ -255,7 +255,7 @@ SETTING_RULES: dict[str, dict[str, Any]] = {
     "alpha_p": {"gt": 0, "le": 1, "why": "an under-relaxation factor"},
     "startup_iterations": {"ge": 0, "le": 100_000, "why": "iterations at the start-up relaxation; 0: off"},
     "startup_alpha_u": {"gt": 0, "le": 1, "why": "an under-relaxation factor"},
-    "startup_ramp": {"ge": 0, "le": 100_000, "why": "iterations of the rise to alpha_u; 0: a step"},
+    "startup_ramp": {"ge": 0, "le": 100_000, "why": "the start-up's last iterations, rising to alpha_u; 0: a step"},
     "convection": {"choices": ("linear_upwind", "upwind")},
     "limiter": {"choices": ("venkatakrishnan", "venkatakrishnan_wang", "barth_jespersen", "none")},
     "limiter_k": {"gt": 0, "le": 1000, "why": "the limiter's K: 0.3-10 in practice for venkatakrishnan, 10-80 for "

@@ -46,10 +46,10 @@ class SimpleSettings:
         converge or oscillate (43 / 7 with the wall-spacing cap of :mod:`meshing.hybrid`), the converged
         forces unchanged to 0.1 % (docs/benchmarks.md, "Start-up"). It does nothing at
         ``alpha_u <= startup_alpha_u`` (the NACA 0012 case's SIMPLE 0.7).
-    startup_ramp: iterations after the start-up over which alpha_u rises linearly from
-        ``min(alpha_u, startup_alpha_u)`` to ``alpha_u`` (iteration ``startup_iterations + j`` at
-        ``a0 + (alpha_u - a0) j / (startup_ramp + 1)``, :func:`solver.simple.iteration_alpha_u`); 0 (default):
-        the step at the start-up's end.
+    startup_ramp: the last ``startup_ramp`` iterations of the start-up (at most all of them) rise linearly
+        from ``min(alpha_u, startup_alpha_u)`` towards ``alpha_u`` instead of the step at its end (iteration
+        ``n - r + j`` of a start-up of ``n`` with a ramp of ``r`` at ``a0 + (alpha_u - a0) j / (r + 1)``,
+        :func:`solver.simple.iteration_alpha_u`); 0 (default): the step; no start-up, no ramp.
     convection: ``"linear_upwind"`` (second order, deferred correction) or ``"upwind"``
         (:data:`solver.assembly.CONVECTION_SCHEMES`).
     limiter, limiter_k: gradient limiter for convection (:data:`solver.gradient.LIMITERS`).

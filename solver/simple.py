@@ -196,21 +196,22 @@ def _blas_threads(n):
 
 
 def iteration_alpha_u(settings: SimpleSettings, it: int) -> float:
-    """The momentum relaxation of iteration ``it`` (from 1): ``min(alpha_u, startup_alpha_u)`` for the first
-    ``startup_iterations``, then for ``startup_ramp`` iterations rising linearly (iteration
-    ``startup_iterations + j`` at ``a0 + (alpha_u - a0) j / (startup_ramp + 1)``), ``alpha_u`` after them."""
-    a0 = min(settings.alpha_u, settings.startup_alpha_u)
-    j = it - settings.startup_iterations
-    if j <= 0:
-        return a0
-    if j > settings.startup_ramp:
+    """The momentum relaxation of iteration ``it`` (from 1). The start-up's ``n = startup_iterations``
+    iterations run at ``a0 = min(alpha_u, startup_alpha_u)``, except its last ``r = min(startup_ramp, n)``,
+    which rise linearly towards ``alpha_u`` (iteration ``n - r + j`` at ``a0 + (alpha_u - a0) j / (r + 1)``,
+    j = 1 … r); ``alpha_u`` after the start-up."""
+    n = settings.startup_iterations
+    if it > n:
         return settings.alpha_u
-    return a0 + (settings.alpha_u - a0) * j / (settings.startup_ramp + 1)
+    a0 = min(settings.alpha_u, settings.startup_alpha_u)
+    r = min(settings.startup_ramp, n)
+    j = it - (n - r)
+    return a0 if j <= 0 else a0 + (settings.alpha_u - a0) * j / (r + 1)
 
 
 def _startup_settings(settings: SimpleSettings, current: SimpleSettings, it: int) -> SimpleSettings:
     """``current`` where iteration ``it``'s relaxation (:func:`iteration_alpha_u`) is its own, else a new one."""
-    if it > settings.startup_iterations + settings.startup_ramp:
+    if it > settings.startup_iterations:
         return settings
     alpha = iteration_alpha_u(settings, it)
     return current if current.alpha_u == alpha else dataclasses.replace(settings, alpha_u=alpha)
@@ -228,8 +229,8 @@ def _iterate(problem: Problem, settings: SimpleSettings, state: FlowState | None
     solver_state: dict = {}
     status, message = "not_converged", f"reached max_iter = {settings.max_iter}"
     classification = None
-    # the impulsive start's first iterations, gentler (SimpleSettings.startup_iterations), then startup_ramp
-    # iterations rising linearly to alpha_u; a settings object is built only where alpha_u changes
+    # the impulsive start's first iterations, gentler (SimpleSettings.startup_iterations), their last
+    # startup_ramp rising linearly to alpha_u; a settings object is built only where alpha_u changes
     current = settings
     it = 0
     for it in range(1, settings.max_iter + 1):
