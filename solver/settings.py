@@ -11,17 +11,14 @@ from dataclasses import dataclass, field
 from .linalg import SolverSettings
 
 #: Options of the default pressure solver (:func:`solver.linalg._amg_cg`, relative tolerance 0.05): one
-#: Ruge–Stüben set-up per steady solve, kept for its interpolation only while every level's operator is
-#: re-formed from each iteration's p' matrix (``galerkin``, :class:`solver.amg.GalerkinHierarchy`, 0.7 ms per
-#: refresh), from the first solve on (``refresh_after`` 0); a new set-up after 1 000 solves or after one that
-#: took more than 8 CG iterations. Benchmark blade at medium (docs/performance.md, session 5): one set-up
-#: instead of 31 (0.70 -> 0.06 s CPU), 3.2 instead of 3.3 CG iterations per solve, the AMG part of an
-#: iteration 8.8 -> 7.6 ms. Session 5 kept the first set-up unrefreshed for the first 10 solves (its start-up
-#: transient was faster so); with the gentle start-up and the session-7 k/omega settings the refresh from the
-#: first solve is as fast or faster in outer iterations (benchmark medium 310 instead of 320) and each of those
-#: ten solves takes 20-25 ms less at medium (docs/performance.md, "The pressure AMG refreshed from the first
-#: solve (session 9)").
-PRESSURE_AMG = {"galerkin": True, "rebuild_every": 1000, "rebuild_above": 8, "refresh_after": 0}
+#: Ruge–Stüben set-up per steady solve, reused as built for the first 10 pressure solves (the start-up
+#: transient, as before), then kept for its interpolation only while every level's operator is re-formed from
+#: each iteration's p' matrix (``galerkin``, :class:`solver.amg.GalerkinHierarchy`, 0.7 ms per refresh); a new
+#: set-up after 1 000 solves or after one that took more than 8 CG iterations. Benchmark blade at medium
+#: (docs/performance.md, session 5): one set-up instead of 31 (0.70 -> 0.06 s CPU), 3.2 instead of 3.3 CG
+#: iterations per solve after the first 10, the AMG part of an iteration 8.8 -> 7.6 ms, the same 310 outer
+#: iterations. Refreshing from the first solve made that blade's start-up transient slower (320).
+PRESSURE_AMG = {"galerkin": True, "rebuild_every": 1000, "rebuild_above": 8, "refresh_after": 10}
 
 
 @dataclass(frozen=True)
