@@ -15,7 +15,7 @@ def _schedule(settings: SimpleSettings, n: int) -> list[float]:
 
 
 def test_no_ramp_is_the_step():
-    s = SimpleSettings(alpha_u=0.95, startup_iterations=3, startup_alpha_u=0.7)
+    s = SimpleSettings(alpha_u=0.95, startup_iterations=3, startup_alpha_u=0.7, startup_ramp=0)
     assert _schedule(s, 6) == [0.7] * 3 + [0.95] * 3
 
 
