@@ -49,9 +49,10 @@ class SimpleSettings:
     startup_ramp: the last ``startup_ramp`` iterations of the start-up (at most all of them) rise linearly
         from ``min(alpha_u, startup_alpha_u)`` towards ``alpha_u`` instead of the step at its end (iteration
         ``n - r + j`` of a start-up of ``n`` with a ramp of ``r`` at ``a0 + (alpha_u - a0) j / (r + 1)``,
-        :func:`solver.simple.iteration_alpha_u`); 0 (default): the step; no start-up, no ramp. 50 (the whole
-        start-up): lift within 0.1 % in fewer iterations on all six ``bench_openfoam`` cases and on most blades of
-        both robustness sweeps, the classes unchanged (docs/performance.md, "A ramped end of the start-up").
+        :func:`solver.simple.iteration_alpha_u`); 0: the step; no start-up, no ramp. Default 50 (the whole
+        start-up): lift within 0.1 % in fewer iterations on all six ``bench_openfoam`` cases (random 0 medium
+        127 -> 104) and on most blades of both robustness sweeps, the classes unchanged, 4-7 % fewer
+        iterations over each sweep (docs/performance.md, "A ramped end of the start-up").
     convection: ``"linear_upwind"`` (second order, deferred correction) or ``"upwind"``
         (:data:`solver.assembly.CONVECTION_SCHEMES`).
     limiter, limiter_k: gradient limiter for convection (:data:`solver.gradient.LIMITERS`).
@@ -123,7 +124,7 @@ class SimpleSettings:
     alpha_p: float | None = None
     startup_iterations: int = 50
     startup_alpha_u: float = 0.7
-    startup_ramp: int = 0
+    startup_ramp: int = 50
     convection: str = "linear_upwind"
     limiter: str = "venkatakrishnan"
     limiter_k: float = 5.0

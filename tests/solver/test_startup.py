@@ -25,7 +25,7 @@ def _relaxations(monkeypatch, settings) -> list[float]:
 
 
 def test_first_iterations_run_at_the_start_up_relaxation(monkeypatch):
-    cfg = cylinder_settings(max_iter=8, alpha_u=0.95, startup_iterations=3, startup_alpha_u=0.7)
+    cfg = cylinder_settings(max_iter=8, alpha_u=0.95, startup_iterations=3, startup_alpha_u=0.7, startup_ramp=0)
     assert _relaxations(monkeypatch, cfg) == [0.7] * 3 + [0.95] * 5
 
 
