@@ -13,7 +13,7 @@ import numpy as np
 from ..assembly import CONVECTION_SCHEMES, convection_gradient
 from ..boundary import FIXED, BoundaryData
 from ..fvmesh import FVMesh
-from ..gradient import interpolate_linear, ls_gradient
+from ..gradient import green_gauss_gradient, interpolate_linear, ls_gradient
 from ..kernels import log_mean_faces, sst_blending_arguments, sst_f2_argument, sst_omega_coefficients
 from ..linalg import SolverSettings
 from ..transport import scalar_system
@@ -60,6 +60,13 @@ class SST:
         ``"analytic"`` (default, scaled by :func:`omega_flux_factor` so that the two-point difference carries
         the flux of the analytic near-wall omega) or ``"two_point"`` (unscaled, as OpenFOAM's
         ``omegaWallFunction``), :data:`OMEGA_WALL_FLUXES`.
+    velocity_gradient: the velocity gradient of the SST step (strain and vorticity of the production terms
+        and of the eddy-viscosity limiter): ``"least_squares"`` (default, the momentum step's) or
+        ``"green_gauss"`` (on the least-squares-corrected faces, as OpenFOAM's ``Gauss linear`` grad(U)),
+        :data:`VELOCITY_GRADIENTS`. At the nose of the random blades with a sharp suction peak the
+        least-squares gradient of the stretched, curved cells gives a higher stagnation strain: k 27 % above
+        OpenFOAM's near the peak of random16 and its C_max 2.55 % low; ``green_gauss`` there: -1.26 %
+        (docs/validation-blades.md, "Session 9"; not the default: table5 becomes a 0.08 % ripple).
     """
 
     wall_treatment: str = "automatic"
@@ -76,6 +83,7 @@ class SST:
     omega_floor: float = 1e-6
     face_interpolation: str = "log_mean"
     omega_wall_flux: str = "analytic"
+    velocity_gradient: str = "least_squares"
 
     def __post_init__(self):
         if self.wall_treatment not in WALL_TREATMENTS:
@@ -85,7 +93,8 @@ class SST:
                                       ("omega_production", self.omega_production, OMEGA_PRODUCTIONS),
                                       ("convection", self.convection, CONVECTION_SCHEMES),
                                       ("face_interpolation", self.face_interpolation, FACE_DIFFUSIVITIES),
-                                      ("omega_wall_flux", self.omega_wall_flux, OMEGA_WALL_FLUXES)):
+                                      ("omega_wall_flux", self.omega_wall_flux, OMEGA_WALL_FLUXES),
+                                      ("velocity_gradient", self.velocity_gradient, VELOCITY_GRADIENTS)):
             if value not in registry:
                 raise ValueError(f"unknown {name} {value!r}; choose from {sorted(registry)}")
 
@@ -236,6 +245,19 @@ OMEGA_WALL_FLUXES: dict[str, Callable] = {
 }
 
 
+def _green_gauss_velocity(mesh: FVMesh, bnd: BoundaryData, u: np.ndarray, grad_u: np.ndarray) -> np.ndarray:
+    """Green–Gauss gradient ``(nc, 2, 2)`` of the velocity, on faces reconstructed with ``grad_u``."""
+    u_b = bnd.velocity(mesh, u, grad_u)
+    return np.stack([green_gauss_gradient(mesh, u[:, i], u_b[:, i], grad_u[:, i, :]) for i in range(2)], axis=1)
+
+
+#: The SST step's velocity gradient by name: ``f(mesh, bnd, u, grad_u_ls) -> (nc, 2, 2)``, 1/s.
+VELOCITY_GRADIENTS: dict[str, Callable] = {
+    "least_squares": lambda mesh, bnd, u, grad_u: grad_u,
+    "green_gauss": _green_gauss_velocity,
+}
+
+
 def turbulence_step(model: SST, setup: SSTSetup, mesh: FVMesh, pattern, bnd: BoundaryData, u: np.ndarray,
                     grad_u: np.ndarray, flux: np.ndarray, k: np.ndarray, omega: np.ndarray, rho: float,
                     mu: float, solver_state: dict) -> tuple[dict, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -249,6 +271,7 @@ def turbulence_step(model: SST, setup: SSTSetup, mesh: FVMesh, pattern, bnd: Bou
     ni = mesh.n_internal
     ob = mesh.owner[ni:]
     d = setup.distance
+    grad_u = VELOCITY_GRADIENTS[model.velocity_gradient](mesh, bnd, u, grad_u)
     s2, w2 = velocity_invariants(grad_u)
     sp2 = PRODUCTION_MEASURES[model.production_measure](s2, w2)
     wall = WALL_TREATMENTS[model.wall_treatment](mesh, setup, u, k, nu, rho, c)

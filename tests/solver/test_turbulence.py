@@ -154,6 +154,25 @@ def test_omega_wall_flux_options():
         SST(omega_wall_flux="none")
 
 
+def test_sst_velocity_gradient_options_green_gauss_exact_for_a_linear_field():
+    """``velocity_gradient``: ``least_squares`` (default) hands the momentum step's gradient through;
+    ``green_gauss`` rebuilds it from face values and is exact for a linear velocity field too."""
+    from solver.turbulence.sst import VELOCITY_GRADIENTS
+
+    assert SST().velocity_gradient == "least_squares"
+    with pytest.raises(ValueError, match="velocity_gradient.*green_gauss"):
+        SST(velocity_gradient="gauss")
+    p = channel_problem(n=8)
+    m = p.mesh
+    x, y = m.centroid[:, 0], m.centroid[:, 1]
+    u = np.stack([0.3 + 2.0 * x - 1.0 * y, -0.5 + 0.5 * x + 3.0 * y], axis=1)
+    exact = np.broadcast_to(np.array([[2.0, -1.0], [0.5, 3.0]]), (m.n_cells, 2, 2))
+    gg = VELOCITY_GRADIENTS["green_gauss"](m, p.bnd, u, exact)
+    assert np.array_equal(VELOCITY_GRADIENTS["least_squares"](m, p.bnd, u, exact), exact)
+    interior = np.setdiff1d(np.arange(m.n_cells), m.owner[m.n_internal:])   # walls and inlet impose their own values
+    assert np.allclose(gg[interior], exact[interior], atol=1e-9)
+
+
 def test_segment_distance():
     a, b = np.array([0.0, 0.0]), np.array([1.0, 0.0])
     p = np.array([[0.5, 2.0], [-3.0, 4.0], [2.0, -1.0]])
