@@ -314,7 +314,10 @@ class _SolverBase(_Frozen):
     wall_treatment: SST wall treatment, ``automatic`` (wall functions blended with the low-Re
     formulation by y+) or ``low_re`` (resolved to the wall, y+ ~ 1). omega_production, omega_wall_flux:
     the SST options of the same names (:class:`solver.turbulence.SST`: ``unlimited`` or ``limited`` omega
-    production; ``analytic`` or ``two_point`` omega flux next to the wall cells). initial: initial velocity field,
+    production; ``analytic`` or ``two_point`` omega flux next to the wall cells). sst_velocity_gradient: the
+    SST option ``velocity_gradient``, the velocity gradient of the turbulence step's production terms
+    (``least_squares``, the momentum step's, or ``green_gauss``, OpenFOAM's ``Gauss linear``; the momentum
+    step keeps its own). initial: initial velocity field,
     ``freestream`` (uniform ``(C0, 0)``, the default), ``potential`` (the potential flow around the blade,
     :func:`solver.potential_start`: fewer start-up divergences in the channel at coarse, docs/benchmarks.md)
     or ``rest`` (zero; diverged at once at Re = 1e6).
@@ -331,6 +334,7 @@ class _SolverBase(_Frozen):
     wall_treatment: Literal["automatic", "low_re"] = "automatic"
     omega_production: Literal["unlimited", "limited"] = "unlimited"
     omega_wall_flux: Literal["analytic", "two_point"] = "analytic"
+    sst_velocity_gradient: Literal["least_squares", "green_gauss"] = "least_squares"
     initial: Literal["freestream", "rest", "potential"] = "freestream"
 
     @field_validator("*", mode="before")

@@ -200,7 +200,8 @@ def solve_flow(config: Config, fvmesh: FVMesh, *, log: Log | None = None, every:
     s = config.solver
     say = log or (lambda _line: None)
     turbulence = {"turbulence": SST(wall_treatment=s.wall_treatment, omega_production=s.omega_production,
-                                    omega_wall_flux=s.omega_wall_flux)} if s.model == "sst" else {}
+                                    omega_wall_flux=s.omega_wall_flux,
+                                    velocity_gradient=s.sst_velocity_gradient)} if s.model == "sst" else {}
     try:
         problem = Problem.create(fvmesh, boundary_conditions(config), Fluid(config.flow.density,
                                  config.flow.viscosity), **turbulence)

@@ -90,6 +90,7 @@ def test_flow_section_drives_the_mesh_unless_the_mesh_sets_it():
     ("solver.wall_treatment=wallfn", "allowed: 'automatic' or 'low_re'"),
     ("solver.omega_production=clipped", "allowed: 'unlimited' or 'limited'"),
     ("solver.omega_wall_flux=wall_function", "allowed: 'analytic' or 'two_point'"),
+    ("solver.sst_velocity_gradient=gauss", "allowed: 'least_squares' or 'green_gauss'"),
     ("solver.alpha_u=1.5", "'solver.alpha_u' = 1.5 is outside (0, 1]: an under-relaxation factor"),
     ("solver.max_iter=0", "'solver.max_iter' = 0 is outside [1, 100000]: the blade solves converge in"),
     ("solver.algorithm=piso", "'solver.algorithm' = 'piso' is not allowed; allowed: 'simple' or 'simplec'"),
@@ -147,7 +148,7 @@ def test_solver_section_choices_are_the_solver_registries():
     ("solver.limiter=minmod", "'solver.limiter' = 'minmod' is not allowed; allowed: "),
     ("solver.divergence_factor=0.5", "'solver.divergence_factor' = 0.5 is outside (1, 1e+12]"),
     ("solver.momentum_solver=amg", "unknown key 'solver.momentum_solver'; allowed: model, wall_treatment, "
-                                   "omega_production, omega_wall_flux, initial"),
+                                   "omega_production, omega_wall_flux, sst_velocity_gradient, initial"),
     ("solver.alpha_p=0", "'solver.alpha_p' = 0 is outside (0, 1]"),
 ])
 def test_generated_solver_keys_are_validated_with_the_key_named(override, message):
