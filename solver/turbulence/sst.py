@@ -61,12 +61,13 @@ class SST:
         the flux of the analytic near-wall omega) or ``"two_point"`` (unscaled, as OpenFOAM's
         ``omegaWallFunction``), :data:`OMEGA_WALL_FLUXES`.
     velocity_gradient: the velocity gradient of the SST step (strain and vorticity of the production terms
-        and of the eddy-viscosity limiter): ``"least_squares"`` (default, the momentum step's) or
-        ``"green_gauss"`` (on the least-squares-corrected faces, as OpenFOAM's ``Gauss linear`` grad(U)),
-        :data:`VELOCITY_GRADIENTS`. At the nose of the random blades with a sharp suction peak the
-        least-squares gradient of the stretched, curved cells gives a higher stagnation strain: k 27 % above
-        OpenFOAM's near the peak of random16 and its C_max 2.55 % low; ``green_gauss`` there: -1.26 %
-        (docs/validation-blades.md, "Session 9"; not the default: table5 becomes a 0.08 % ripple).
+        and of the eddy-viscosity limiter): ``"green_gauss"`` (default: on the least-squares-corrected faces,
+        as OpenFOAM's ``Gauss linear`` grad(U)) or ``"least_squares"`` (the momentum step's own gradient),
+        :data:`VELOCITY_GRADIENTS`. The momentum step keeps its least-squares gradient either way. At the
+        nose of the blades with a sharp suction peak the least-squares gradient of the stretched, curved
+        cells over-states the stagnation strain: k 27 % above OpenFOAM's near the peak of random16 and its
+        C_max 2.55 % low (-1.26 % with ``green_gauss``); over the issue-15 blade set |delta C_L| against
+        OpenFOAM falls from 0.61 % to 0.33 % by the median (docs/validation-blades.md, sessions 9-10).
     """
 
     wall_treatment: str = "automatic"
@@ -83,7 +84,7 @@ class SST:
     omega_floor: float = 1e-6
     face_interpolation: str = "log_mean"
     omega_wall_flux: str = "analytic"
-    velocity_gradient: str = "least_squares"
+    velocity_gradient: str = "green_gauss"
 
     def __post_init__(self):
         if self.wall_treatment not in WALL_TREATMENTS:
