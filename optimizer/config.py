@@ -277,7 +277,7 @@ SETTING_RULES: dict[str, dict[str, Any]] = {
                       "None: windows of classify_window"},
     "early_skip": {"ge": 0, "le": 100_000, "why": "start-up iterations skipped before the early stop's two windows "
                    "(at most one window); None: one window"},
-    "pressure_gradient": {"choices": ("least_squares", "green_gauss")},
+    "pressure_gradient": {"choices": ("least_squares", "green_gauss", "green_gauss_linear")},
     "divergence_factor": {"gt": 1, "le": 1e12, "why": "a residual this many times its minimum is divergence; "
                           "1e12 leaves no margin in double precision"},
     "velocity_limit": {"gt": 0, "le": 1e8, "unit": "m/s", "why": "a cell velocity above it is divergence"},

@@ -299,9 +299,22 @@ def green_gauss_gradient(mesh: FVMesh, phi: np.ndarray, phi_b: np.ndarray, grad:
     values of :func:`interpolate_corrected` (reconstructed from both sides with ``grad (nc, 2)``, e.g. the
     least-squares gradient) and ``phi_b (nb,)`` on boundary faces. Exact for linear fields; being a sum
     of face terms, its truncation errors telescope between neighbours (a conservative pressure force)."""
+    return gauss_sum(mesh, np.concatenate([interpolate_corrected(mesh, phi, grad), phi_b]))
+
+
+def green_gauss_linear_gradient(mesh: FVMesh, phi: np.ndarray, phi_b: np.ndarray, grad=None) -> np.ndarray:
+    """Green–Gauss cell gradient ``(nc, 2)`` on plain linear face values ``w phi_P + (1 - w) phi_N`` (OpenFOAM's
+    ``Gauss linear``; ``grad`` is not used). Not exact on skewed meshes (the face centre is off the P-N line),
+    but its face values depend on the two cells alone: the corrected values of :func:`green_gauss_gradient`
+    bring in the neighbours' gradients, and as the momentum source's pressure gradient they made table5's
+    nose a limit cycle that OpenFOAM does not have (docs/validation-blades.md, session 10)."""
+    return gauss_sum(mesh, np.concatenate([face_operators(mesh)["linear"] @ phi, phi_b]))
+
+
+def gauss_sum(mesh: FVMesh, phi_f: np.ndarray) -> np.ndarray:
+    """``(1/V) sum_f phi_f S_f`` per cell, ``(nc, 2)``, of the face values ``phi_f (nf,)`` (internal then boundary)."""
     ni, nc = mesh.n_internal, mesh.n_cells
-    pf = np.concatenate([interpolate_corrected(mesh, phi, grad), phi_b])
-    flux = pf[:, None] * mesh.sf
+    flux = phi_f[:, None] * mesh.sf
     out = np.stack([np.bincount(mesh.owner, flux[:, k], nc) - np.bincount(mesh.neighbour[:ni], flux[:ni, k], nc)
                     for k in range(2)], axis=1)
     return out / mesh.volume[:, None]

@@ -110,7 +110,8 @@ class SimpleSettings:
     divergence_factor: a residual above 1 and this many times its running minimum means divergence.
     velocity_limit: a cell velocity component above this (m/s) means divergence.
     pressure_gradient: gradient of p in the momentum source and in the Rhie–Chow interpolation:
-        ``"least_squares"`` or ``"green_gauss"`` (:data:`solver.simple.PRESSURE_GRADIENTS`).
+        ``"least_squares"``, ``"green_gauss"`` (skewness-corrected face values) or ``"green_gauss_linear"``
+        (plain linear face values, OpenFOAM's ``Gauss linear``) (:data:`solver.simple.PRESSURE_GRADIENTS`).
     blas_threads: BLAS threads while iterating (via threadpoolctl when installed; None: leave as is).
         The per-iteration work is many small vector operations, where BLAS threads only contend
         (measured 5x slower with default OpenBLAS threading on a busy 2-core machine).

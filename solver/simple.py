@@ -28,7 +28,7 @@ from collections.abc import Callable
 import numpy as np
 
 from .assembly import convection_gradient
-from .gradient import green_gauss_gradient, ls_gradient
+from .gradient import green_gauss_gradient, green_gauss_linear_gradient, ls_gradient
 from .momentum import MomentumSystem, momentum_system
 from .monitors import (
     DivergenceError,
@@ -72,15 +72,17 @@ ALGORITHMS: dict[str, Callable[[np.ndarray, MomentumSystem], np.ndarray]] = {
 
 #: Pressure gradients of the momentum source by name: ``f(mesh, p, p_b, grad_p_ls) -> (nc, 2)`` Pa/m; the
 #: least-squares gradient itself, or Green–Gauss on skewness-corrected face values
-#: (:func:`solver.gradient.green_gauss_gradient`). The same gradient is the cell gradient of the Rhie–Chow
-#: interpolation (:func:`outer_iteration`, step 3): with Green–Gauss in the momentum source and least squares
-#: in Rhie–Chow, the face flux kept ``D̄ (ḡ_LS - ḡ_GG)·e``, a pressure term the p' equation does not see,
-#: and on the fine NACA 0012 C-mesh at 10° a pressure/v mode grew from ~2 500 iterations in the band of
+#: (:func:`solver.gradient.green_gauss_gradient`) or on plain linear ones
+#: (:func:`solver.gradient.green_gauss_linear_gradient`, OpenFOAM's ``Gauss linear``). The same gradient is
+#: the cell gradient of the Rhie–Chow interpolation (:func:`outer_iteration`, step 3): with Green–Gauss in
+#: the momentum source and least squares in Rhie–Chow, the face flux kept ``D̄ (ḡ_LS - ḡ_GG)·e``, a pressure
+#: term the p' equation does not see, and on the fine NACA 0012 C-mesh at 10° a pressure/v mode grew from ~2 500 iterations in the band of
 #: 30-53° non-orthogonal cells 0.2-0.6 chords above the suction side (docs/validation.md, "The
 #: Green–Gauss pressure gradient on the fine mesh (session 6)").
 PRESSURE_GRADIENTS: dict[str, Callable] = {
     "least_squares": lambda mesh, p, p_b, grad_p: grad_p,
     "green_gauss": green_gauss_gradient,
+    "green_gauss_linear": green_gauss_linear_gradient,
 }
 
 
