@@ -278,6 +278,8 @@ SETTING_RULES: dict[str, dict[str, Any]] = {
     "early_skip": {"ge": 0, "le": 100_000, "why": "start-up iterations skipped before the early stop's two windows "
                    "(at most one window); None: one window"},
     "pressure_gradient": {"choices": ("least_squares", "green_gauss", "green_gauss_linear")},
+    "green_gauss_relaxation": {"gt": 0, "le": 1, "why": "an under-relaxation factor of the green_gauss pressure "
+                               "gradient's correction"},
     "divergence_factor": {"gt": 1, "le": 1e12, "why": "a residual this many times its minimum is divergence; "
                           "1e12 leaves no margin in double precision"},
     "velocity_limit": {"gt": 0, "le": 1e8, "unit": "m/s", "why": "a cell velocity above it is divergence"},
@@ -327,6 +329,7 @@ class _SolverBase(_Frozen):
     startup_alpha_u, startup_ramp, convection,
     limiter, limiter_k, max_iter, tol, monitor_tol, monitor_window, classify_window, classify_tol,
     stall_tol, stop_window, stop_tol, early_classify, early_periods, early_skip, pressure_gradient,
+    green_gauss_relaxation,
     divergence_factor, velocity_limit.
     """
 

@@ -112,6 +112,12 @@ class SimpleSettings:
     pressure_gradient: gradient of p in the momentum source and in the Rhie–Chow interpolation:
         ``"least_squares"``, ``"green_gauss"`` (skewness-corrected face values) or ``"green_gauss_linear"``
         (plain linear face values, OpenFOAM's ``Gauss linear``) (:data:`solver.simple.PRESSURE_GRADIENTS`).
+    green_gauss_relaxation: under-relaxation, between iterations, of the ``green_gauss`` pressure gradient's
+        correction (its difference from ``green_gauss_linear``: the face values' reconstruction terms), in
+        (0, 1]; 1: none. The converged solution does not depend on it. Why: the reconstruction brings the
+        neighbours' pressure gradients into each face value; iterated explicitly it let table5's nose leave
+        OpenFOAM's converged solution into a limit cycle (F_Y +-5.8 %), relaxed by 0.1-0.3 it converges there
+        (docs/validation-blades.md, session 10).
     blas_threads: BLAS threads while iterating (via threadpoolctl when installed; None: leave as is).
         The per-iteration work is many small vector operations, where BLAS threads only contend
         (measured 5x slower with default OpenBLAS threading on a busy 2-core machine).
@@ -145,6 +151,7 @@ class SimpleSettings:
     early_periods: float | None = 8.0
     early_skip: int | None = 100
     pressure_gradient: str = "least_squares"
+    green_gauss_relaxation: float = 1.0
     blas_threads: int | None = 1
     divergence_factor: float = 1e5
     velocity_limit: float = 1e4

@@ -123,6 +123,9 @@ def outer_iteration(problem: Problem, s: FlowState, cfg: SimpleSettings, solver_
                                   cfg.limiter_k)
     # 2. momentum predictor
     grad_p_mom = _lookup(PRESSURE_GRADIENTS, "pressure_gradient", cfg.pressure_gradient)(m, s.p, p_b, s.grad_p)
+    if cfg.pressure_gradient == "green_gauss" and cfg.green_gauss_relaxation < 1.0:
+        grad_p_mom = relaxed_correction(grad_p_mom, green_gauss_linear_gradient(m, s.p, p_b),
+                                        cfg.green_gauss_relaxation, solver_state)
     turb = problem.turbulence
     mu_eff = mu if turb is None else momentum_viscosity(m, problem.turbulence_setup, s.nu_t, s.mu_wall, rho, mu,
                                                         turb.face_interpolation)
@@ -166,6 +169,18 @@ def outer_iteration(problem: Problem, s: FlowState, cfg: SimpleSettings, solver_
         res.update(r_t)
         solver_state["grad_u"] = grad_u_new
     return res
+
+
+def relaxed_correction(grad: np.ndarray, grad_linear: np.ndarray, factor: float, solver_state: dict) -> np.ndarray:
+    """``grad_linear + c``, ``c`` the correction ``grad - grad_linear`` under-relaxed by ``factor`` against the
+    last iteration's (kept in ``solver_state``); the first iteration takes it whole. At a fixed point ``c`` is
+    the correction itself, so the converged solution is ``grad``'s."""
+    correction = grad - grad_linear
+    last = solver_state.get("green_gauss_correction")
+    if last is not None:
+        correction = factor * correction + (1.0 - factor) * last
+    solver_state["green_gauss_correction"] = correction
+    return grad_linear + correction
 
 
 #: The settings of a :func:`solve_steady` call that gives none.

@@ -94,3 +94,20 @@ def test_green_gauss_linear_is_exact_on_an_orthogonal_mesh_and_uses_only_the_two
     exact = np.broadcast_to([2.0, -3.0], (m.n_cells, 2))
     assert np.allclose(green_gauss_gradient(m, phi, phi_b, exact), exact, atol=1e-9)
     assert np.abs(green_gauss_linear_gradient(m, phi, phi_b) - exact).max() > 1e-2
+
+
+def test_a_relaxed_correction_changes_the_path_not_the_converged_solution():
+    """``green_gauss_relaxation``: the correction over ``green_gauss_linear`` lags by the factor, and the
+    cavity converges to the unrelaxed solution (a fixed point of both iterations)."""
+    from solver.simple import relaxed_correction
+
+    state = {}
+    lin, full = np.zeros((3, 2)), np.ones((3, 2))
+    assert np.array_equal(relaxed_correction(full, lin, 0.25, state), full)          # first: whole
+    assert np.allclose(relaxed_correction(3 * full, lin, 0.25, state), 1.5 * full)   # 0.25 * 3 + 0.75 * 1
+    kw = dict(tol=1e-10, max_iter=3000, pressure_gradient="green_gauss")
+    ref = solve_steady(cavity(0.35), settings(**kw))
+    relaxed = solve_steady(cavity(0.35), settings(green_gauss_relaxation=0.3, **kw))
+    assert ref.status == relaxed.status == "converged"
+    assert relaxed.iterations != ref.iterations
+    assert np.allclose(relaxed.u, ref.u, atol=1e-8 * np.abs(ref.u).max())
