@@ -308,7 +308,7 @@ def green_gauss_linear_gradient(mesh: FVMesh, phi: np.ndarray, phi_b: np.ndarray
     but its face values depend on the two cells alone: the corrected values of :func:`green_gauss_gradient`
     bring in the neighbours' gradients, and as the momentum source's pressure gradient they made table5's
     nose a limit cycle that OpenFOAM does not have (docs/validation-blades.md, session 10)."""
-    return gauss_sum(mesh, np.concatenate([face_operators(mesh)["linear"] @ phi, phi_b]))
+    return gauss_sum(mesh, np.concatenate([interpolate_linear(mesh, phi), phi_b]))
 
 
 def gauss_sum(mesh: FVMesh, phi_f: np.ndarray) -> np.ndarray:
