@@ -478,7 +478,7 @@ def plot(records: dict, directory: Path = FIGURES) -> list[Path]:
     directory.mkdir(parents=True, exist_ok=True)
     out = []
     fig, ax = plt.subplots(figsize=(6.5, 4.5))
-    styles = {"openfoam": ("OpenFOAM kOmegaSST", "s--"), "millfoil": ("millfoil SST", "o-"),
+    styles = {"openfoam": ("OpenFOAM kOmegaSST", "s--"), "millfoil": ("millfoil SST, default before session 10", "o-"),
               SESSION10: ("millfoil SST, Green–Gauss SST gradient (default since session 10)", "d-")}
     for level in sorted({k[0] for k in records}):
         for code, (label, style) in styles.items():
