@@ -61,13 +61,15 @@ class SST:
         the flux of the analytic near-wall omega) or ``"two_point"`` (unscaled, as OpenFOAM's
         ``omegaWallFunction``), :data:`OMEGA_WALL_FLUXES`.
     velocity_gradient: the velocity gradient of the SST step (strain and vorticity of the production terms
-        and of the eddy-viscosity limiter): ``"green_gauss"`` (default: on the least-squares-corrected faces,
-        as OpenFOAM's ``Gauss linear`` grad(U)) or ``"least_squares"`` (the momentum step's own gradient),
-        :data:`VELOCITY_GRADIENTS`. The momentum step keeps its least-squares gradient either way. At the
-        nose of the blades with a sharp suction peak the least-squares gradient of the stretched, curved
-        cells over-states the stagnation strain: k 27 % above OpenFOAM's near the peak of random16 and its
-        C_max 2.55 % low (-1.26 % with ``green_gauss``); over the issue-15 blade set |delta C_L| against
-        OpenFOAM falls from 0.61 % to 0.33 % by the median (docs/validation-blades.md, sessions 9-10).
+        and of the eddy-viscosity limiter): ``"least_squares"`` (default, the momentum step's own gradient) or
+        ``"green_gauss"`` (on the least-squares-corrected faces, as OpenFOAM's ``Gauss linear`` grad(U) but
+        with the reconstruction), :data:`VELOCITY_GRADIENTS`. At the nose of the blades with a sharp suction
+        peak the least-squares gradient of the stretched, curved cells over-states the stagnation strain: k
+        27 % above OpenFOAM's near the peak of random16 and its C_max 2.55 % low (-1.26 % with
+        ``green_gauss``; over the issue-15 blade set |delta C_L| against OpenFOAM 0.61 -> 0.33 % by the
+        median). Not the default: with the ``automatic`` wall treatment at a first-cell y+ of 30 the flat
+        plate's c_f error grows from 1.0 % to 4.1 % (the reconstructed faces in the log layer), against
+        the 3 % of ``tests/solver/test_flatplate.py`` (docs/validation-blades.md, session 10).
     """
 
     wall_treatment: str = "automatic"
@@ -84,7 +86,7 @@ class SST:
     omega_floor: float = 1e-6
     face_interpolation: str = "log_mean"
     omega_wall_flux: str = "analytic"
-    velocity_gradient: str = "green_gauss"
+    velocity_gradient: str = "least_squares"
 
     def __post_init__(self):
         if self.wall_treatment not in WALL_TREATMENTS:

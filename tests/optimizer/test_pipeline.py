@@ -196,9 +196,9 @@ def test_solver_section_sets_the_sst_options(monkeypatch):
 
     monkeypatch.setattr(pipeline, "Problem", Capture)
     config = load_config(BENCH, ["solver.omega_production=limited", "solver.omega_wall_flux=two_point",
-                                 "solver.wall_treatment=low_re", "solver.sst_velocity_gradient=least_squares"])
+                                 "solver.wall_treatment=low_re", "solver.sst_velocity_gradient=green_gauss"])
     with pytest.raises(StageFailure, match="captured"):
         pipeline.solve_flow(config, fvmesh=None)
     sst = seen["sst"]
     assert (sst.omega_production, sst.omega_wall_flux, sst.wall_treatment, sst.velocity_gradient) == (
-        "limited", "two_point", "low_re", "least_squares")
+        "limited", "two_point", "low_re", "green_gauss")
