@@ -462,8 +462,8 @@ def load_ladson_trips() -> dict[str, np.ndarray]:
     return {k: np.array(sorted(v)) for k, v in out.items()}
 
 
-#: The code label of the records taken with the default of session 10 (the SST step's Green–Gauss velocity
-#: gradient); the plain ``millfoil`` records are the earlier default's, kept as the results table's history.
+#: The code label of the records taken with session 10's option ``SST(velocity_gradient="green_gauss")`` (the
+#: default while they were run); the plain ``millfoil`` records are the default's.
 SESSION10 = "millfoil-s10"
 
 
@@ -478,8 +478,8 @@ def plot(records: dict, directory: Path = FIGURES) -> list[Path]:
     directory.mkdir(parents=True, exist_ok=True)
     out = []
     fig, ax = plt.subplots(figsize=(6.5, 4.5))
-    styles = {"openfoam": ("OpenFOAM kOmegaSST", "s--"), "millfoil": ("millfoil SST, default before session 10", "o-"),
-              SESSION10: ("millfoil SST, Green–Gauss SST gradient (default since session 10)", "d-")}
+    styles = {"openfoam": ("OpenFOAM kOmegaSST", "s--"), "millfoil": ("millfoil SST (default)", "o-"),
+              SESSION10: ("millfoil SST, Green–Gauss SST gradient (session-10 option)", "d-")}
     for level in sorted({k[0] for k in records}):
         for code, (label, style) in styles.items():
             pts = sorted((a, lift(r)) for (lv, a, c), r in records.items() if lv == level and c == code
