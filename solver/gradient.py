@@ -294,12 +294,20 @@ def face_operators(mesh: FVMesh) -> dict:
     return out
 
 
-def green_gauss_gradient(mesh: FVMesh, phi: np.ndarray, phi_b: np.ndarray, grad: np.ndarray) -> np.ndarray:
+def green_gauss_gradient(mesh: FVMesh, phi: np.ndarray, phi_b: np.ndarray, grad: np.ndarray,
+                         bounded: bool = False) -> np.ndarray:
     """Green–Gauss cell gradient ``(nc, 2)`` of ``phi (nc,)``: ``(1/V) sum_f phi_f S_f`` with the face
     values of :func:`interpolate_corrected` (reconstructed from both sides with ``grad (nc, 2)``, e.g. the
     least-squares gradient) and ``phi_b (nb,)`` on boundary faces. Exact for linear fields; being a sum
-    of face terms, its truncation errors telescope between neighbours (a conservative pressure force)."""
-    return gauss_sum(mesh, np.concatenate([interpolate_corrected(mesh, phi, grad), phi_b]))
+    of face terms, its truncation errors telescope between neighbours (a conservative pressure force).
+    ``bounded``: each internal face value clipped to the range of its two cells' values (a reconstruction
+    that cannot overshoot, e.g. the log layer's concave profile extrapolated from a wall cell)."""
+    phi_f = interpolate_corrected(mesh, phi, grad)
+    if bounded:
+        ni = mesh.n_internal
+        p, n = phi[mesh.owner[:ni]], phi[mesh.neighbour[:ni]]
+        phi_f = np.clip(phi_f, np.minimum(p, n), np.maximum(p, n))
+    return gauss_sum(mesh, np.concatenate([phi_f, phi_b]))
 
 
 def green_gauss_linear_gradient(mesh: FVMesh, phi: np.ndarray, phi_b: np.ndarray, grad=None) -> np.ndarray:

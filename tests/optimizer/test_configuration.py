@@ -90,7 +90,7 @@ def test_flow_section_drives_the_mesh_unless_the_mesh_sets_it():
     ("solver.wall_treatment=wallfn", "allowed: 'automatic' or 'low_re'"),
     ("solver.omega_production=clipped", "allowed: 'unlimited' or 'limited'"),
     ("solver.omega_wall_flux=wall_function", "allowed: 'analytic' or 'two_point'"),
-    ("solver.sst_velocity_gradient=gauss", "allowed: 'least_squares' or 'green_gauss'"),
+    ("solver.sst_velocity_gradient=gauss", "allowed: 'least_squares', 'green_gauss' or 'green_gauss_bounded'"),
     ("solver.alpha_u=1.5", "'solver.alpha_u' = 1.5 is outside (0, 1]: an under-relaxation factor"),
     ("solver.max_iter=0", "'solver.max_iter' = 0 is outside [1, 100000]: the blade solves converge in"),
     ("solver.algorithm=piso", "'solver.algorithm' = 'piso' is not allowed; allowed: 'simple' or 'simplec'"),

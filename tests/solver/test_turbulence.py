@@ -173,6 +173,24 @@ def test_sst_velocity_gradient_options_green_gauss_exact_for_a_linear_field():
     assert np.allclose(gg[interior], exact[interior], atol=1e-9)
 
 
+def test_sst_velocity_gradient_bounded_clips_only_overshooting_faces():
+    """``green_gauss_bounded``: where the reconstruction stays within the two cells' values (a linear field on a
+    uniform mesh) it is ``green_gauss`` bitwise; a reconstructing gradient that overshoots is clipped."""
+    from solver.gradient import green_gauss_gradient
+    from solver.turbulence.sst import VELOCITY_GRADIENTS
+
+    assert "green_gauss_bounded" in VELOCITY_GRADIENTS
+    m = square_mesh(8, triangles="none")
+    x = m.centroid[:, 0]
+    phi_b = m.face_centre[m.n_internal:, 0]
+    exact = np.tile([1.0, 0.0], (m.n_cells, 1))
+    assert np.array_equal(green_gauss_gradient(m, x, phi_b, exact, bounded=True),
+                          green_gauss_gradient(m, x, phi_b, exact))
+    steep = exact * np.random.default_rng(1).normal(0.0, 50.0, (m.n_cells, 1))   # reconstructs far past the cells
+    free, clipped = green_gauss_gradient(m, x, phi_b, steep), green_gauss_gradient(m, x, phi_b, steep, bounded=True)
+    assert np.abs(free).max() > 10.0 and np.abs(clipped).max() <= 2.0 + 1e-12       # faces within their cells
+
+
 def test_segment_distance():
     a, b = np.array([0.0, 0.0]), np.array([1.0, 0.0])
     p = np.array([[0.5, 2.0], [-3.0, 4.0], [2.0, -1.0]])
