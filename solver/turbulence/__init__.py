@@ -70,6 +70,7 @@ from .closures import (
     omega_viscous,
     production,
     spalding_u_tau,
+    spalding_velocity_gradient,
     velocity_invariants,
 )
 from .sst import (
@@ -90,5 +91,5 @@ __all__ = [
     "SSTSetup", "TMR_FREESTREAM", "WALL_TREATMENTS", "WallValues", "automatic_wall", "blend", "build_setup",
     "cross_diffusion", "eddy_viscosity", "f1", "f2", "face_diffusivity", "inlet_turbulence", "initial_fields",
     "log_mean", "low_re_wall", "momentum_viscosity", "omega_flux_factor", "omega_log", "omega_viscous",
-    "production", "spalding_u_tau", "turbulence_step", "velocity_invariants",
+    "production", "spalding_u_tau", "spalding_velocity_gradient", "turbulence_step", "velocity_invariants",
 ]

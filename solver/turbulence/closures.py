@@ -146,6 +146,17 @@ def spalding_u_tau(u_t: np.ndarray, y: np.ndarray, nu: float, c: SSTConstants = 
     return out.reshape(shape)
 
 
+def spalding_velocity_gradient(u_t: np.ndarray, u_tau: np.ndarray, nu: float,
+                                c: SSTConstants = SSTConstants()) -> np.ndarray:
+    """Wall-normal derivative ``dU/dy`` (1/s) of Spalding's profile at the point where the tangential speed is
+    ``u_t`` (m/s), given its friction velocity ``u_tau`` (m/s, :func:`spalding_u_tau`): ``(u_tau² / nu) /
+    (dy+/du+)`` with ``dy+/du+ = 1 + kappa e^(-kappa B) (e^(kappa u+) - 1 - kappa u+ - (kappa u+)²/2)``;
+    ``u_tau² / nu`` in the sublayer, ``u_tau / (kappa y)`` in the log layer."""
+    kup = c.kappa * np.asarray(u_t, float) / np.maximum(u_tau, 1e-300)
+    dyp_dup = 1.0 + c.kappa * np.exp(-c.kappa * c.spalding_b) * (np.expm1(kup) - kup - 0.5 * kup**2)
+    return u_tau**2 / nu / dyp_dup
+
+
 def velocity_invariants(grad_u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``(S², Omega²)`` per cell: ``S² = 2 S_ij S_ij`` and ``Omega² = 2 W_ij W_ij`` from ``grad_u
     (nc, 2, 2)`` ``[cell, component, direction]``, 1/s²; one compiled loop

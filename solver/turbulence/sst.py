@@ -26,7 +26,7 @@ from .closures import (
     production,
     velocity_invariants,
 )
-from .walls import WALL_TREATMENTS
+from .walls import WALL_TREATMENTS, with_wall_law_gradient
 
 
 @dataclass(frozen=True)
@@ -67,11 +67,11 @@ class SST:
         peak the least-squares gradient of the stretched, curved cells over-states the stagnation strain: k
         27 % above OpenFOAM's near the peak of random16 and its C_max 2.55 % low (-1.26 % with
         ``green_gauss``; over the issue-15 blade set |delta C_L| against OpenFOAM 0.61 -> 0.33 % by the
-        median). Not the default: with the ``automatic`` wall treatment at a first-cell y+ of 30 the flat
-        plate's c_f error grows from 1.0 % to 4.1 % (the reconstructed faces in the log layer), against
-        the 3 % of ``tests/solver/test_flatplate.py`` (docs/validation-blades.md, session 10).
-        ``"green_gauss_bounded"``: each reconstructed face value clipped to its two cells' range (blade gains
-        kept; y+ 30 flat plate c_f 2.2 %, C_D 3.3 %; measured as a monkeypatch, not yet checked as a default).
+        median). Under the ``automatic`` wall treatment the Green–Gauss forms reconstruct the faces of the
+        wall cells with the law of the wall's normal derivative (:func:`.walls.with_wall_law_gradient`):
+        with the cells' own least-squares gradient the y+ 30 flat plate's c_f was 4.1 % off TMR (session 10),
+        with the law's 0.03 % (docs/validation-blades.md, session 11).
+        ``"green_gauss_bounded"``: each reconstructed face value clipped to its two cells' range.
     """
 
     wall_treatment: str = "automatic"
@@ -259,11 +259,14 @@ def _green_gauss_velocity(mesh: FVMesh, bnd: BoundaryData, u: np.ndarray, grad_u
                     axis=1)
 
 
-#: The SST step's velocity gradient by name: ``f(mesh, bnd, u, grad_u_ls) -> (nc, 2, 2)``, 1/s.
+#: The SST step's velocity gradient by name: ``f(mesh, bnd, u, grad_u_ls, grad_faces) -> (nc, 2, 2)``, 1/s;
+#: ``grad_faces`` reconstructs the Green–Gauss forms' faces (the least-squares gradient, with the law of the
+#: wall's normal derivative in the wall cells under the ``automatic`` treatment).
 VELOCITY_GRADIENTS: dict[str, Callable] = {
-    "least_squares": lambda mesh, bnd, u, grad_u: grad_u,
-    "green_gauss": _green_gauss_velocity,
-    "green_gauss_bounded": lambda mesh, bnd, u, grad_u: _green_gauss_velocity(mesh, bnd, u, grad_u, True),
+    "least_squares": lambda mesh, bnd, u, grad_u, grad_faces: grad_u,
+    "green_gauss": lambda mesh, bnd, u, grad_u, grad_faces: _green_gauss_velocity(mesh, bnd, u, grad_faces),
+    "green_gauss_bounded": lambda mesh, bnd, u, grad_u, grad_faces: _green_gauss_velocity(mesh, bnd, u, grad_faces,
+                                                                                         True),
 }
 
 
@@ -280,10 +283,14 @@ def turbulence_step(model: SST, setup: SSTSetup, mesh: FVMesh, pattern, bnd: Bou
     ni = mesh.n_internal
     ob = mesh.owner[ni:]
     d = setup.distance
-    grad_u = VELOCITY_GRADIENTS[model.velocity_gradient](mesh, bnd, u, grad_u)
+    wall = WALL_TREATMENTS[model.wall_treatment](mesh, setup, u, k, nu, rho, c)
+    # a wall cell's least-squares gradient holds the wall value (U_P/y-like, 5x the log law's at y+ = 30): the
+    # faces it reconstructs toward the log layer overshoot, so the Green–Gauss forms take the wall law's
+    grad_faces = grad_u if wall.wall_law_dudn is None else with_wall_law_gradient(mesh, setup, u, grad_u,
+                                                                                  wall.wall_law_dudn)
+    grad_u = VELOCITY_GRADIENTS[model.velocity_gradient](mesh, bnd, u, grad_u, grad_faces)
     s2, w2 = velocity_invariants(grad_u)
     sp2 = PRODUCTION_MEASURES[model.production_measure](s2, w2)
-    wall = WALL_TREATMENTS[model.wall_treatment](mesh, setup, u, k, nu, rho, c)
     wl, wc = setup.wall_local, setup.wall_cells
     # boundary values: inlet Dirichlet, k = 0 on walls (low_re), zero gradient elsewhere
     k_dir = setup.inlet.copy()

@@ -167,8 +167,8 @@ def test_sst_velocity_gradient_options_green_gauss_exact_for_a_linear_field():
     x, y = m.centroid[:, 0], m.centroid[:, 1]
     u = np.stack([0.3 + 2.0 * x - 1.0 * y, -0.5 + 0.5 * x + 3.0 * y], axis=1)
     exact = np.broadcast_to(np.array([[2.0, -1.0], [0.5, 3.0]]), (m.n_cells, 2, 2))
-    gg = VELOCITY_GRADIENTS["green_gauss"](m, p.bnd, u, exact)
-    assert np.array_equal(VELOCITY_GRADIENTS["least_squares"](m, p.bnd, u, exact), exact)
+    gg = VELOCITY_GRADIENTS["green_gauss"](m, p.bnd, u, 0.0 * exact, exact)      # the faces' gradient is used
+    assert np.array_equal(VELOCITY_GRADIENTS["least_squares"](m, p.bnd, u, exact, 0.0 * exact), exact)
     interior = np.setdiff1d(np.arange(m.n_cells), m.owner[m.n_internal:])   # walls and inlet impose their own values
     assert np.allclose(gg[interior], exact[interior], atol=1e-9)
 
@@ -189,6 +189,54 @@ def test_sst_velocity_gradient_bounded_clips_only_overshooting_faces():
     steep = exact * np.random.default_rng(1).normal(0.0, 50.0, (m.n_cells, 1))   # reconstructs far past the cells
     free, clipped = green_gauss_gradient(m, x, phi_b, steep), green_gauss_gradient(m, x, phi_b, steep, bounded=True)
     assert np.abs(free).max() > 10.0 and np.abs(clipped).max() <= 2.0 + 1e-12       # faces within their cells
+
+
+def test_spalding_velocity_gradient_limits_and_profile_slope():
+    """dU/dy of Spalding's profile: ``u_tau²/nu`` in the sublayer, ``u_tau/(kappa y)`` deep in the log layer,
+    and the slope of the profile itself (a central difference of ``y+(u+)``) in the buffer layer."""
+    from solver.turbulence.closures import spalding_velocity_gradient
+
+    c, nu, u_tau = SSTConstants(), 1e-6, 0.05
+    eb = np.exp(-c.kappa * c.spalding_b)
+
+    def y_of(up):                                     # Spalding's y (m) at u+
+        kup = c.kappa * up
+        return (up + eb * (np.exp(kup) - 1 - kup - kup**2 / 2 - kup**3 / 6)) * nu / u_tau
+
+    assert spalding_velocity_gradient(0.01 * u_tau, u_tau, nu, c) == pytest.approx(u_tau**2 / nu, rel=1e-6)
+    up = 30.0                                         # y+ ~ 2e4
+    assert spalding_velocity_gradient(up * u_tau, u_tau, nu, c) == pytest.approx(
+        u_tau / (c.kappa * y_of(up)), rel=0.01)
+    up, h = 11.0, 1e-5                                # buffer layer
+    slope = 2 * h * u_tau / (y_of(up + h) - y_of(up - h))
+    assert spalding_velocity_gradient(up * u_tau, u_tau, nu, c) == pytest.approx(slope, rel=1e-6)
+
+
+def test_wall_law_gradient_replaces_only_the_wall_normal_shear_of_single_wall_cells():
+    """:func:`with_wall_law_gradient` sets ``d u_t / d n`` (inward) of the cells with one wall face and keeps
+    every other component and cell; under the ``automatic`` treatment the wall values carry the law's slope."""
+    from solver.turbulence.walls import automatic_wall, with_wall_law_gradient
+
+    p = channel_problem(n=8)
+    m, setup = p.mesh, SST().setup(p.mesh, p.bnd, 1000.0, 1e-3)
+    rng = np.random.default_rng(3)
+    u = np.column_stack([1.0 + rng.random(m.n_cells), 0.1 * rng.random(m.n_cells)])
+    grad = rng.normal(size=(m.n_cells, 2, 2))
+    wall = automatic_wall(m, setup, u, np.full(m.n_cells, 1e-3), 1e-6, 1000.0, SSTConstants())
+    out = with_wall_law_gradient(m, setup, u, grad, wall.wall_law_dudn)
+    f = m.n_internal + setup.wall_local
+    cell, normal = m.owner[f], m.normal[f]
+    single = np.bincount(setup.wall_face_cell)[setup.wall_face_cell] == 1
+    assert single.any()
+    for face in np.flatnonzero(single):
+        du = u[cell[face]] - setup.wall_velocity[face]
+        t = du - du @ normal[face] * normal[face]
+        t /= np.linalg.norm(t)
+        g, g0 = out[cell[face]], grad[cell[face]]
+        assert t @ g @ -normal[face] == pytest.approx(wall.wall_law_dudn[face], rel=1e-12)
+        assert np.allclose(g @ t, g0 @ t) and np.allclose((g - g0) @ -normal[face], (g - g0) @ -normal[face] @ t * t)
+    untouched = np.setdiff1d(np.arange(m.n_cells), cell[single])
+    assert np.array_equal(out[untouched], grad[untouched])
 
 
 def test_segment_distance():
