@@ -447,6 +447,7 @@ class Config(_Frozen):
         ``source``: where ``raw`` was read (:mod:`optimizer.yamlsource`): messages then start ``FILE:LINE:``.
         """
         data = set_values(apply_overrides(raw, overrides, cls), (values or {}).items(), cls)
+        source = source and source.with_overrides(override_items(overrides, cls))
         try:
             config = cls.model_validate(data)
         except ValidationError as exc:
@@ -529,6 +530,12 @@ def apply_overrides(raw: Mapping[str, Any], overrides: Sequence[str], schema: ty
             raise ConfigError(str(exc)) from None
         pairs.append((key, value))
     return set_values(raw, pairs, schema)
+
+
+def override_items(overrides: Sequence[str], schema: type[Config] = Config) -> dict[tuple[str, ...], str]:
+    """``{path: "--set KEY=VALUE"}`` of the (already checked) ``overrides``: where errors about them point."""
+    return {_override_path(item.partition("=")[0].strip(), schema): f"--set {_short_key(item.strip())}"
+            for item in overrides}
 
 
 def _short_key(key: str) -> str:

@@ -18,8 +18,8 @@ Used by every configuration loader (:func:`optimizer.config.load_config` and the
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-from dataclasses import dataclass, field
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -49,11 +49,17 @@ class Source:
     """Where the values of one YAML document came from.
 
     name: the file name as given (``"<defaults>"`` for no file). lines: ``{path: line}``, 1-based, for
-    every mapping key (the line of the key) and sequence item (the line of the item).
+    every mapping key (the line of the key) and sequence item (the line of the item). overridden:
+    ``{path: "--set KEY=VALUE"}`` for the values a command line set over the file's (:meth:`with_overrides`).
     """
 
     name: str
     lines: dict[Path_, int] = field(default_factory=dict)
+    overridden: dict[Path_, str] = field(default_factory=dict)
+
+    def with_overrides(self, given: Mapping[Path_, str]) -> Source:
+        """This source with the values at the paths of ``given`` located at its ``--set`` items instead."""
+        return replace(self, overridden={**self.overridden, **{_normalise(p): s for p, s in given.items()}})
 
     def line(self, path: Sequence[Any]) -> int | None:
         """Line of ``path`` or of its nearest ancestor present in the file; None if none is."""
@@ -65,7 +71,12 @@ class Source:
         return None
 
     def where(self, path: Sequence[Any] = ()) -> str:
-        """``FILE:LINE`` of ``path`` (see :meth:`line`), or just ``FILE`` when no line is known."""
+        """``FILE:LINE`` of ``path`` (see :meth:`line`), or just ``FILE`` when no line is known; ``--set
+        KEY=VALUE`` when the command line set ``path`` or a section holding it."""
+        path = _normalise(tuple(path))
+        for n in range(len(path), 0, -1):
+            if path[:n] in self.overridden:
+                return self.overridden[path[:n]]
         line = self.line(path)
         return self.name if line is None else f"{self.name}:{line}"
 

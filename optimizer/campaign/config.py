@@ -46,6 +46,7 @@ from optimizer.config import (
     ConfigError,
     _Frozen,
     apply_overrides,
+    override_items,
     explain,
     load_config,
     set_values,
@@ -211,8 +212,8 @@ class CampaignConfig(Config):
                      source: Source | None = None) -> CampaignConfig:
         """As :meth:`optimizer.config.Config.from_mapping`, with the campaign's checks across sections.
         A campaign needs no single blade (``blade.parameters`` may be left out: the space is what counts)."""
-        source = source or Source("<defaults>")
         data = set_values(apply_overrides(raw, overrides, cls), (values or {}).items(), cls)
+        source = (source or Source("<defaults>")).with_overrides(override_items(overrides, cls))
         try:
             config = cls.model_validate(data)
         except ValidationError as exc:

@@ -59,6 +59,24 @@ def test_a_refusal_names_the_key_the_value_the_range_and_why(capsys):
         _from_text("mesh:\n  level: fine\n  growth: 1.5\n")
 
 
+def test_an_override_refused_is_located_at_its_set_item_not_the_file_line(tmp_path, capsys):
+    """A value a ``--set`` gave is reported as ``--set KEY=VALUE``: the file line it replaced (or the embedded
+    campaign's) holds another value. The file's own values keep ``FILE:LINE``."""
+    from optimizer.config import Config
+    from optimizer.yamlsource import parse_yaml
+
+    raw, source = parse_yaml("flow:\n  speed: 1.0e-300\nmesh:\n  level: fine\n", "c.yaml")
+    with pytest.raises(ConfigError, match=r"^--set flow\.speed=2e3: 'flow\.speed' = 2000 m/s is outside"):
+        Config.from_mapping(raw, ["flow.speed=2e3"], source=source)
+    with pytest.raises(ConfigError, match=r"^c\.yaml:2: 'flow\.speed' = 1e-300 m/s is outside"):
+        Config.from_mapping(raw, ["mesh.level=coarse"], source=source)
+    out = tmp_path / "never"
+    assert main(["run", "--set", "solver.green_gauss_relaxation=0", "--out", str(out)]) == EXIT_INPUT
+    err = capsys.readouterr().err
+    assert err.startswith("millfoil: error: --set solver.green_gauss_relaxation=0: 'solver.green_gauss_relaxation' "
+                          "= 0 is outside (0, 1]") and not out.exists()
+
+
 def _from_text(text: str):
     from optimizer.config import Config
     from optimizer.yamlsource import parse_yaml
