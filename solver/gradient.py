@@ -14,6 +14,7 @@ import numpy as np
 from .fvmesh import FVMesh
 from .kernels import (
     CompiledCSR,
+    clip_to_cells,
     interpolate_faces,
     interpolate_faces_1,
     interpolate_faces_2,
@@ -296,17 +297,19 @@ def face_operators(mesh: FVMesh) -> dict:
 
 def green_gauss_gradient(mesh: FVMesh, phi: np.ndarray, phi_b: np.ndarray, grad: np.ndarray,
                          bounded: bool = False) -> np.ndarray:
-    """Green–Gauss cell gradient ``(nc, 2)`` of ``phi (nc,)``: ``(1/V) sum_f phi_f S_f`` with the face
-    values of :func:`interpolate_corrected` (reconstructed from both sides with ``grad (nc, 2)``, e.g. the
-    least-squares gradient) and ``phi_b (nb,)`` on boundary faces. Exact for linear fields; being a sum
-    of face terms, its truncation errors telescope between neighbours (a conservative pressure force).
+    """Green–Gauss cell gradient ``(nc, ..., 2)`` of ``phi (nc, ...)``: ``(1/V) sum_f phi_f S_f`` with the face
+    values of :func:`interpolate_corrected` (reconstructed from both sides with ``grad (nc, ..., 2)``, e.g.
+    the least-squares gradient) and ``phi_b (nb, ...)`` on boundary faces. Exact for linear fields; being a
+    sum of face terms, its truncation errors telescope between neighbours (a conservative pressure force).
     ``bounded``: each internal face value clipped to the range of its two cells' values (a reconstruction
     that cannot overshoot, e.g. the log layer's concave profile extrapolated from a wall cell)."""
     phi_f = interpolate_corrected(mesh, phi, grad)
     if bounded:
         ni = mesh.n_internal
-        p, n = phi[mesh.owner[:ni]], phi[mesh.neighbour[:ni]]
-        phi_f = np.clip(phi_f, np.minimum(p, n), np.maximum(p, n))
+        _, _, owner, neighbour = linear_weights(mesh)
+        shape = phi_f.shape
+        phi_f = clip_to_cells(np.ascontiguousarray(phi_f.reshape(ni, -1)), np.ascontiguousarray(phi.reshape(len(phi), -1)),
+                              owner, neighbour).reshape(shape)
     return gauss_sum(mesh, np.concatenate([phi_f, phi_b]))
 
 
@@ -320,12 +323,23 @@ def green_gauss_linear_gradient(mesh: FVMesh, phi: np.ndarray, phi_b: np.ndarray
 
 
 def gauss_sum(mesh: FVMesh, phi_f: np.ndarray) -> np.ndarray:
-    """``(1/V) sum_f phi_f S_f`` per cell, ``(nc, 2)``, of the face values ``phi_f (nf,)`` (internal then boundary)."""
-    ni, nc = mesh.n_internal, mesh.n_cells
-    flux = phi_f[:, None] * mesh.sf
-    out = np.stack([np.bincount(mesh.owner, flux[:, k], nc) - np.bincount(mesh.neighbour[:ni], flux[:ni, k], nc)
-                    for k in range(2)], axis=1)
-    return out / mesh.volume[:, None]
+    """``(1/V) sum_f phi_f S_f`` per cell, ``(nc, ..., 2)``, of the face values ``phi_f (nf, ...)`` (internal
+    then boundary): one compiled sparse product with the cached ``(2 nc, nf)`` operator of the signed
+    ``S_f / V`` (4 ``bincount`` passes per component took 1 ms on a 20 000-cell mesh)."""
+    op = mesh.info.get("gauss_sum")
+    if op is None:
+        import scipy.sparse as sp
+
+        nc, ni, nf = mesh.n_cells, mesh.n_internal, len(mesh.sf)
+        faces = np.concatenate([np.arange(nf), np.arange(ni)])
+        cells = np.concatenate([mesh.owner, mesh.neighbour[:ni]])
+        sign = np.concatenate([np.ones(nf), -np.ones(ni)])
+        blocks = [sp.csr_matrix((sign * mesh.sf[faces, k] / mesh.volume[cells], (cells, faces)), shape=(nc, nf))
+                  for k in range(2)]
+        op = mesh.info["gauss_sum"] = CompiledCSR(sp.vstack(blocks, format="csr"))
+    nc = mesh.n_cells
+    out = (op @ phi_f.reshape(len(phi_f), -1)).reshape((2, nc) + phi_f.shape[1:])
+    return np.moveaxis(out, 0, -1)
 
 
 # ------------------------------------------------------------------------------ quadratic reconstruction

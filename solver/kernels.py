@@ -103,6 +103,19 @@ def cap_quadratic_correction(lin, face_mean, faces, owner, neighbour, grad, d_le
 
 
 @njit(cache=True)
+def clip_to_cells(phi_f, phi, owner, neighbour):
+    """Each face value ``phi_f (ni, k)`` clipped, in place, to the range of its owner's and neighbour's values
+    ``phi (nc, k)``; one pass (numpy's gathers, minimum and maximum took 2 ms on 35 000 faces)."""
+    for f in range(phi_f.shape[0]):
+        for j in range(phi_f.shape[1]):
+            a, b = phi[owner[f], j], phi[neighbour[f], j]
+            lo, hi = (a, b) if a < b else (b, a)
+            v = phi_f[f, j]
+            phi_f[f, j] = lo if v < lo else (hi if v > hi else v)
+    return phi_f
+
+
+@njit(cache=True)
 def symmetric_gauss_seidel_pair(indptr, indices, data, inv_diag_x, inv_diag_y, x, y, b_x, b_y, sweeps):
     """``sweeps`` symmetric Gauss–Seidel sweeps (rows ``0..n-1``, then ``n-1..0``) on the two systems
     ``(D_x + O) x = b_x`` and ``(D_y + O) y = b_y`` that share their off-diagonal part ``O`` (CSR arrays

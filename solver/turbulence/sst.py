@@ -254,9 +254,7 @@ def _green_gauss_velocity(mesh: FVMesh, bnd: BoundaryData, u: np.ndarray, grad_u
                           bounded: bool = False) -> np.ndarray:
     """Green–Gauss gradient ``(nc, 2, 2)`` of the velocity, on faces reconstructed with ``grad_u`` (each face
     value within its two cells' values when ``bounded``)."""
-    u_b = bnd.velocity(mesh, u, grad_u)
-    return np.stack([green_gauss_gradient(mesh, u[:, i], u_b[:, i], grad_u[:, i, :], bounded) for i in range(2)],
-                    axis=1)
+    return green_gauss_gradient(mesh, u, bnd.velocity(mesh, u, grad_u), grad_u, bounded)
 
 
 #: The SST step's velocity gradient by name: ``f(mesh, bnd, u, grad_u_ls, grad_faces) -> (nc, 2, 2)``, 1/s;

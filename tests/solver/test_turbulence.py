@@ -189,6 +189,13 @@ def test_sst_velocity_gradient_bounded_clips_only_overshooting_faces():
     steep = exact * np.random.default_rng(1).normal(0.0, 50.0, (m.n_cells, 1))   # reconstructs far past the cells
     free, clipped = green_gauss_gradient(m, x, phi_b, steep), green_gauss_gradient(m, x, phi_b, steep, bounded=True)
     assert np.abs(free).max() > 10.0 and np.abs(clipped).max() <= 2.0 + 1e-12       # faces within their cells
+    # a vector field (the SST step's velocity) is its components side by side
+    u, g = np.column_stack([x, -2.0 * x]), np.stack([steep, -3.0 * steep], axis=1)
+    u_b = np.column_stack([phi_b, -2.0 * phi_b])
+    both = green_gauss_gradient(m, u, u_b, g, bounded=True)
+    for i in range(2):
+        assert np.allclose(both[:, i, :], green_gauss_gradient(m, u[:, i], u_b[:, i], g[:, i, :], bounded=True),
+                           rtol=1e-14, atol=1e-12)
 
 
 def test_spalding_velocity_gradient_limits_and_profile_slope():
