@@ -318,10 +318,10 @@ class _SolverBase(_Frozen):
     the SST options of the same names (:class:`solver.turbulence.SST`: ``unlimited`` or ``limited`` omega
     production; ``analytic`` or ``two_point`` omega flux next to the wall cells). sst_velocity_gradient: the
     SST option ``velocity_gradient``, the velocity gradient of the turbulence step's production terms
-    (``least_squares``, the momentum step's own, the default; or ``green_gauss``, OpenFOAM's ``Gauss
-    linear`` with the face reconstruction: nearer OpenFOAM on the blades at y+ ~ 1, less accurate with wall
-    functions at y+ ~ 30, docs/validation-blades.md, session 10; or ``green_gauss_bounded``, its face values
-    kept within their two cells' values). initial: initial velocity field,
+    (``green_gauss_bounded``, the default: Green–Gauss on reconstructed faces, each kept within its two
+    cells' values, nearer OpenFOAM on the blades, docs/validation-blades.md, session 11; ``green_gauss``,
+    unbounded; or ``least_squares``, the momentum step's own gradient, the default before session 11).
+    initial: initial velocity field,
     ``freestream`` (uniform ``(C0, 0)``, the default), ``potential`` (the potential flow around the blade,
     :func:`solver.potential_start`: fewer start-up divergences in the channel at coarse, docs/benchmarks.md)
     or ``rest`` (zero; diverged at once at Re = 1e6).
@@ -339,7 +339,7 @@ class _SolverBase(_Frozen):
     wall_treatment: Literal["automatic", "low_re"] = "automatic"
     omega_production: Literal["unlimited", "limited"] = "unlimited"
     omega_wall_flux: Literal["analytic", "two_point"] = "analytic"
-    sst_velocity_gradient: Literal["least_squares", "green_gauss", "green_gauss_bounded"] = "least_squares"
+    sst_velocity_gradient: Literal["least_squares", "green_gauss", "green_gauss_bounded"] = "green_gauss_bounded"
     initial: Literal["freestream", "rest", "potential"] = "freestream"
 
     @field_validator("*", mode="before")

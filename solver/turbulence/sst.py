@@ -61,17 +61,18 @@ class SST:
         the flux of the analytic near-wall omega) or ``"two_point"`` (unscaled, as OpenFOAM's
         ``omegaWallFunction``), :data:`OMEGA_WALL_FLUXES`.
     velocity_gradient: the velocity gradient of the SST step (strain and vorticity of the production terms
-        and of the eddy-viscosity limiter): ``"least_squares"`` (default, the momentum step's own gradient) or
-        ``"green_gauss"`` (on the least-squares-corrected faces, as OpenFOAM's ``Gauss linear`` grad(U) but
-        with the reconstruction), :data:`VELOCITY_GRADIENTS`. At the nose of the blades with a sharp suction
-        peak the least-squares gradient of the stretched, curved cells over-states the stagnation strain: k
-        27 % above OpenFOAM's near the peak of random16 and its C_max 2.55 % low (-1.26 % with
-        ``green_gauss``; over the issue-15 blade set |delta C_L| against OpenFOAM 0.61 -> 0.33 % by the
-        median). Under the ``automatic`` wall treatment the Green–Gauss forms reconstruct the faces of the
-        wall cells with the law of the wall's normal derivative (:func:`.walls.with_wall_law_gradient`):
-        with the cells' own least-squares gradient the y+ 30 flat plate's c_f was 4.1 % off TMR (session 10),
-        with the law's 0.03 % (docs/validation-blades.md, session 11).
-        ``"green_gauss_bounded"``: each reconstructed face value clipped to its two cells' range.
+        and of the eddy-viscosity limiter), :data:`VELOCITY_GRADIENTS`: ``"green_gauss_bounded"`` (default
+        since session 11), ``"green_gauss"`` or ``"least_squares"`` (the momentum step's own gradient, the
+        default of sessions 1-10). The Green–Gauss forms sum face values reconstructed from both sides with
+        the least-squares gradients (as OpenFOAM's ``Gauss linear`` grad(U), with the reconstruction);
+        ``_bounded`` clips each face value to its two cells' range. Why: at the nose of the blades with a
+        sharp suction peak the least-squares gradient of the stretched, curved cells over-states the
+        stagnation strain (k 27 % above OpenFOAM's near the peak of random16, C_max 2.55 % low; -1.27 % with
+        the bounded form), and over the issue-15 blade set |delta C_L| against OpenFOAM falls from 0.64 % to
+        0.35 % by the median. Under the ``automatic`` wall treatment the wall cells' faces are reconstructed
+        with the law of the wall's normal derivative (:func:`.walls.with_wall_law_gradient`): with the cells'
+        own least-squares gradient, which holds the wall value, the y+ 30 flat plate's c_f was 4.1 % off TMR
+        (session 10), with the law's 0.03 % (docs/validation-blades.md, session 11).
     """
 
     wall_treatment: str = "automatic"
@@ -88,7 +89,7 @@ class SST:
     omega_floor: float = 1e-6
     face_interpolation: str = "log_mean"
     omega_wall_flux: str = "analytic"
-    velocity_gradient: str = "least_squares"
+    velocity_gradient: str = "green_gauss_bounded"
 
     def __post_init__(self):
         if self.wall_treatment not in WALL_TREATMENTS:

@@ -155,11 +155,11 @@ def test_omega_wall_flux_options():
 
 
 def test_sst_velocity_gradient_options_green_gauss_exact_for_a_linear_field():
-    """``velocity_gradient``: ``least_squares`` (default) hands the momentum step's gradient through;
-    ``green_gauss`` rebuilds it from face values and is exact for a linear velocity field too."""
+    """``velocity_gradient``: ``least_squares`` hands the momentum step's gradient through; ``green_gauss``
+    (``green_gauss_bounded`` is the default) rebuilds it from face values and is exact for a linear field too."""
     from solver.turbulence.sst import VELOCITY_GRADIENTS
 
-    assert SST().velocity_gradient == "least_squares"
+    assert SST().velocity_gradient == "green_gauss_bounded"
     with pytest.raises(ValueError, match="velocity_gradient.*green_gauss"):
         SST(velocity_gradient="gauss")
     p = channel_problem(n=8)
