@@ -465,6 +465,9 @@ def load_ladson_trips() -> dict[str, np.ndarray]:
 #: The code label of the records taken with session 10's option ``SST(velocity_gradient="green_gauss")`` (the
 #: default while they were run); the plain ``millfoil`` records are the default's.
 SESSION10 = "millfoil-s10"
+#: The code label of the records of the least-squares SST gradient, the default to session 10 (relabelled when
+#: session 11 made ``green_gauss_bounded`` the default; the plain ``millfoil`` records since are the new default's).
+LEAST_SQUARES = "millfoil-ls"
 
 
 def plot(records: dict, directory: Path = FIGURES) -> list[Path]:
@@ -478,7 +481,9 @@ def plot(records: dict, directory: Path = FIGURES) -> list[Path]:
     directory.mkdir(parents=True, exist_ok=True)
     out = []
     fig, ax = plt.subplots(figsize=(6.5, 4.5))
-    styles = {"openfoam": ("OpenFOAM kOmegaSST", "s--"), "millfoil": ("millfoil SST (default)", "o-"),
+    styles = {"openfoam": ("OpenFOAM kOmegaSST", "s--"),
+              "millfoil": ("millfoil SST (default: bounded Green–Gauss SST gradient, session 11)", "o-"),
+              LEAST_SQUARES: ("millfoil SST, least-squares SST gradient (default to session 10)", "x:"),
               SESSION10: ("millfoil SST, Green–Gauss SST gradient (session-10 option)", "d-")}
     for level in sorted({k[0] for k in records}):
         for code, (label, style) in styles.items():
