@@ -70,6 +70,11 @@ class Source:
                 return line
         return None
 
+    def gives(self, path: Sequence[Any]) -> bool:
+        """Whether the file or a ``--set`` gave the value at ``path`` itself (not an embedded default)."""
+        path = _normalise(tuple(path))
+        return path in self.lines or any(path[:n] in self.overridden for n in range(1, len(path) + 1))
+
     def where(self, path: Sequence[Any] = ()) -> str:
         """``FILE:LINE`` of ``path`` (see :meth:`line`), or just ``FILE`` when no line is known; ``--set
         KEY=VALUE`` when the command line set ``path`` or a section holding it."""

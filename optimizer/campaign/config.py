@@ -33,6 +33,7 @@ A campaign file is a configuration file (``blade:``, ``mesh:``, ``flow:``, ``sol
 from __future__ import annotations
 
 import re
+import warnings
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any, Literal
@@ -44,11 +45,12 @@ from optimizer.campaign.runner import ExecutionConfig
 from optimizer.config import (
     Config,
     ConfigError,
+    ConfigWarning,
     _Frozen,
     apply_overrides,
-    override_items,
     explain,
     load_config,
+    override_items,
     set_values,
 )
 from optimizer.yamlsource import Source
@@ -236,7 +238,14 @@ def load_campaign(path: str | Path | None, overrides: Sequence[str] = ()) -> Cam
 
 
 def check_campaign(config: CampaignConfig, source: Any) -> CampaignConfig:
-    """Checks across sections (figure names, the blade space, the mesh), errors located in ``source``."""
+    """Checks across sections (figure names, the blade space, the mesh), errors located in ``source``; a
+    :class:`~optimizer.config.ConfigWarning` for ``blade.parameters``, which a campaign does not use."""
+    given = [n for n in config.blade.parameters if source.gives(("blade", "parameters", n))]
+    if given:
+        names = ", ".join(sorted(given))
+        warnings.warn(f"{source.where(('blade', 'parameters', given[0]))}: blade.parameters ({names}) is not used by a "
+                      "campaign: each design takes its values from the space (`millfoil space`); to hold a "
+                      "parameter, set blade.fixed.NAME, to narrow one, blade.bounds.NAME", ConfigWarning, stacklevel=2)
     allowed = config.figures
     for section, items in (("objectives", config.objectives), ("constraints", config.constraints)):
         for i, item in enumerate(items):

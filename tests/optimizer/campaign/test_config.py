@@ -148,3 +148,19 @@ def test_yamlsource_lines_of_keys_and_items():
     assert source.where(("a", "c", 1, "y")) == "f.yaml:5"
     assert source.where(("a", "c", 1, "missing")) == "f.yaml:5"   # nearest ancestor
     assert source.where(("nowhere",)) == "f.yaml"
+
+
+def test_blade_parameters_in_a_campaign_are_named_as_unused(tmp_path):
+    """A campaign's designs take their values from the space: ``blade.parameters`` (a single blade's file, or
+    ``--set alpha=25``) would be silently ignored, so it gets a warning that says where to put them instead."""
+    import warnings
+
+    from optimizer.campaign.config import load_campaign
+    from optimizer.config import ConfigWarning
+
+    with pytest.warns(ConfigWarning, match=r"^--set alpha=25: blade\.parameters \(alpha\) is not used by a "
+                                           r"campaign.*blade\.fixed\.NAME"):
+        load_campaign(None, ["alpha=25"])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", ConfigWarning)
+        load_campaign(None, ["blade.fixed.alpha=25"])      # the way to hold one: no warning
