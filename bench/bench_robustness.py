@@ -168,6 +168,17 @@ def overrides(items: list[str]) -> dict:
     return out
 
 
+def check_overrides(solver: dict, mesh: dict, level: str) -> None:
+    """Exit with the configuration's own message if the ``--set`` / ``--mesh-set`` overrides are not valid
+    (a bad key would otherwise fail every blade of the sweep, one by one)."""
+    from optimizer.config import Config, ConfigError
+
+    try:
+        Config.from_mapping({"mesh": {**mesh, "level": level}, "solver": solver}, blade_values=False)
+    except ConfigError as exc:
+        raise SystemExit(f"bench_robustness: {exc}") from None
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--blades", type=int, default=50)
@@ -188,6 +199,7 @@ def main() -> None:
                         help="write each blade's monitor and residual histories to DIR/blade_<index>.npz")
     args = parser.parse_args()
     solver, mesh = overrides(args.set), overrides(args.mesh_set)
+    check_overrides(solver, mesh, args.level)
     if args.report:
         report(read_records(args.report))
         return
