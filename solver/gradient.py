@@ -307,9 +307,8 @@ def green_gauss_gradient(mesh: FVMesh, phi: np.ndarray, phi_b: np.ndarray, grad:
     if bounded:
         ni = mesh.n_internal
         _, _, owner, neighbour = linear_weights(mesh)
-        shape = phi_f.shape
-        phi_f = clip_to_cells(np.ascontiguousarray(phi_f.reshape(ni, -1)), np.ascontiguousarray(phi.reshape(len(phi), -1)),
-                              owner, neighbour).reshape(shape)
+        faces, cells = np.ascontiguousarray(phi_f.reshape(ni, -1)), np.ascontiguousarray(phi.reshape(len(phi), -1))
+        phi_f = clip_to_cells(faces, cells, owner, neighbour).reshape(phi_f.shape)
     return gauss_sum(mesh, np.concatenate([phi_f, phi_b]))
 
 
