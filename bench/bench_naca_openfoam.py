@@ -559,7 +559,10 @@ def main(argv=None) -> None:
     parser.add_argument("--mf-start", choices=["potential", "openfoam"], default="potential",
                         help="millfoil start: potential flow (validation) or OpenFOAM's converged fields (restart)")
     parser.add_argument("--mf-seconds", type=float, default=None, help="millfoil wall-time cap per angle")
-    parser.add_argument("--work", type=Path, default=ROOT / "runs" / "bench_naca_openfoam")
+    parser.add_argument("--work", type=Path, default=ROOT / "runs" / "bench_naca_openfoam",
+                        help="cases and states; a millfoil run resumes WORK/LEVEL/alphaA/CODE_state.npz where one "
+                        "exists (whatever code version wrote it: the run must meet the convergence test again; "
+                        "the record's iterations_this_run says how far it went), delete it to start afresh")
     parser.add_argument("--out", type=Path, default=None, help="JSON lines file (appended)")
     parser.add_argument("--report", nargs="+", type=Path, default=None, help="JSONL files: print table, plot")
     parser.add_argument("--no-install", action="store_true")
