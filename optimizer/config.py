@@ -255,6 +255,7 @@ SETTING_RULES: dict[str, dict[str, Any]] = {
     "alpha_p": {"gt": 0, "le": 1, "why": "an under-relaxation factor"},
     "startup_iterations": {"ge": 0, "le": 100_000, "why": "iterations at the start-up relaxation; 0: off"},
     "startup_alpha_u": {"gt": 0, "le": 1, "why": "an under-relaxation factor"},
+    "startup_alpha_p": {"gt": 0, "le": 1, "why": "an under-relaxation factor"},
     "startup_ramp": {"ge": 0, "le": 100_000, "why": "the start-up's last iterations, rising to alpha_u; 0: a step"},
     "convection": {"choices": ("linear_upwind", "upwind")},
     "limiter": {"choices": ("venkatakrishnan", "venkatakrishnan_wang", "barth_jespersen", "none")},
@@ -277,7 +278,7 @@ SETTING_RULES: dict[str, dict[str, Any]] = {
                       "None: windows of classify_window"},
     "early_skip": {"ge": 0, "le": 100_000, "why": "start-up iterations skipped before the early stop's two windows "
                    "(at most one window); None: one window"},
-    "pressure_gradient": {"choices": ("least_squares", "green_gauss", "green_gauss_linear")},
+    "pressure_gradient": {"choices": ("least_squares", "green_gauss", "green_gauss_bounded", "green_gauss_linear")},
     "green_gauss_relaxation": {"gt": 0, "le": 1, "why": "an under-relaxation factor of the green_gauss pressure "
                                "gradient's correction"},
     "divergence_factor": {"gt": 1, "le": 1e12, "why": "a residual this many times its minimum is divergence; "
@@ -328,7 +329,7 @@ class _SolverBase(_Frozen):
 
     Every other key is a field of :class:`solver.SimpleSettings` (its meaning, unit and default are
     documented there; ``docs/evaluation.md`` lists them): algorithm, alpha_u, alpha_p, startup_iterations,
-    startup_alpha_u, startup_ramp, convection,
+    startup_alpha_u, startup_alpha_p, startup_ramp, convection,
     limiter, limiter_k, max_iter, tol, monitor_tol, monitor_window, classify_window, classify_tol,
     stall_tol, stop_window, stop_tol, early_classify, early_periods, early_skip, pressure_gradient,
     green_gauss_relaxation,

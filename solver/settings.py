@@ -46,6 +46,10 @@ class SimpleSettings:
         converge or oscillate (43 / 7 with the wall-spacing cap of :mod:`meshing.hybrid`), the converged
         forces unchanged to 0.1 % (docs/benchmarks.md, "Start-up"). It does nothing at
         ``alpha_u <= startup_alpha_u`` (the NACA 0012 case's SIMPLE 0.7).
+    startup_alpha_p: the pressure relaxation of the start-up's iterations (None, the default: ``alpha_p``
+        throughout). Why: with ``alpha_p`` 0.7 from the first iteration, one of the 50 random blades of the
+        campaigns' coarse channel diverged at its leading edge during the start-up; with 1 there and 0.7 after
+        it, it converges (docs/validation-blades.md, session 12).
     startup_ramp: the last ``startup_ramp`` iterations of the start-up (at most all of them) rise linearly
         from ``min(alpha_u, startup_alpha_u)`` towards ``alpha_u`` instead of the step at its end (iteration
         ``n - r + j`` of a start-up of ``n`` with a ramp of ``r`` at ``a0 + (alpha_u - a0) j / (r + 1)``,
@@ -110,8 +114,9 @@ class SimpleSettings:
     divergence_factor: a residual above 1 and this many times its running minimum means divergence.
     velocity_limit: a cell velocity component above this (m/s) means divergence.
     pressure_gradient: gradient of p in the momentum source and in the Rhie–Chow interpolation:
-        ``"least_squares"``, ``"green_gauss"`` (skewness-corrected face values) or ``"green_gauss_linear"``
-        (plain linear face values, OpenFOAM's ``Gauss linear``) (:data:`solver.simple.PRESSURE_GRADIENTS`).
+        ``"least_squares"``, ``"green_gauss"`` (skewness-corrected face values), ``"green_gauss_bounded"`` (the
+        same, each face value kept within its two cells' values) or ``"green_gauss_linear"`` (plain linear face
+        values, OpenFOAM's ``Gauss linear``) (:data:`solver.simple.PRESSURE_GRADIENTS`).
     green_gauss_relaxation: under-relaxation, between iterations, of the ``green_gauss`` pressure gradient's
         correction (its difference from ``green_gauss_linear``: the face values' reconstruction terms), in
         (0, 1]; 1: none. The converged solution does not depend on it. Why: the reconstruction brings the
@@ -131,6 +136,7 @@ class SimpleSettings:
     alpha_p: float | None = None
     startup_iterations: int = 50
     startup_alpha_u: float = 0.7
+    startup_alpha_p: float | None = None
     startup_ramp: int = 50
     convection: str = "linear_upwind"
     limiter: str = "venkatakrishnan"

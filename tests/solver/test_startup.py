@@ -38,3 +38,24 @@ def test_start_up_off(monkeypatch):
     cfg = cylinder_settings(max_iter=4, alpha_u=0.9, startup_iterations=0)
     assert _relaxations(monkeypatch, cfg) == [0.9] * 4
 
+
+
+def test_start_up_pressure_relaxation(monkeypatch):
+    """``startup_alpha_p``: the start-up's iterations apply it, ``alpha_p`` is applied after them (the
+    Green–Gauss pressure gradient's relaxation is 0.7, but 1 during the start-up: docs/validation-blades.md,
+    session 12); None keeps ``alpha_p`` throughout."""
+    seen, real = [], simple.outer_iteration
+
+    def spy(problem, state, cfg, solver_state):
+        seen.append((cfg.alpha_u, cfg.pressure_relaxation))
+        return real(problem, state, cfg, solver_state)
+
+    monkeypatch.setattr(simple, "outer_iteration", spy)
+    problem = Problem.create(dfg_cylinder(**LEVELS["coarse"]), BOUNDARY_CONDITIONS, FLUID)
+    cfg = cylinder_settings(max_iter=5, alpha_u=0.95, alpha_p=0.7, startup_iterations=2, startup_alpha_u=0.95,
+                            startup_alpha_p=1.0)
+    solve_steady(problem, cfg)
+    assert seen == [(0.95, 1.0)] * 2 + [(0.95, 0.7)] * 3
+    seen.clear()
+    solve_steady(problem, cylinder_settings(max_iter=3, alpha_p=0.7, startup_iterations=2))
+    assert [a_p for _, a_p in seen] == [0.7] * 3
