@@ -468,6 +468,9 @@ SESSION10 = "millfoil-s10"
 #: The code label of the records of the least-squares SST gradient, the default to session 10 (relabelled when
 #: session 11 made ``green_gauss_bounded`` the default; the plain ``millfoil`` records since are the new default's).
 LEAST_SQUARES = "millfoil-ls"
+#: The code label of the records of session 11's default (least-squares pressure gradient, bounded Green–Gauss SST
+#: gradient; relabelled when session 12 made the bounded Green–Gauss pressure gradient the default).
+SESSION11 = "millfoil-s11"
 
 
 def plot(records: dict, directory: Path = FIGURES) -> list[Path]:
@@ -482,7 +485,8 @@ def plot(records: dict, directory: Path = FIGURES) -> list[Path]:
     out = []
     fig, ax = plt.subplots(figsize=(6.5, 4.5))
     styles = {"openfoam": ("OpenFOAM kOmegaSST", "s--"),
-              "millfoil": ("millfoil SST (default: bounded Green–Gauss SST gradient, session 11)", "o-"),
+              "millfoil": ("millfoil SST (default: bounded Green–Gauss pressure and SST gradients, session 12)", "o-"),
+              SESSION11: ("millfoil SST, least-squares pressure gradient (default of session 11)", "v-."),
               LEAST_SQUARES: ("millfoil SST, least-squares SST gradient (default to session 10)", "x:"),
               SESSION10: ("millfoil SST, Green–Gauss SST gradient (session-10 option)", "d-")}
     for level in sorted({k[0] for k in records}):

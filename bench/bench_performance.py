@@ -14,7 +14,7 @@ machine's load average is printed, as other jobs inflate wall times (CPU times m
 
     OMP_NUM_THREADS=1 python bench/bench_performance.py --levels coarse medium --blades 2 --repeats 3
     OMP_NUM_THREADS=1 python bench/bench_performance.py --levels medium --blades 0 --set algorithm=simple \\
-        --set alpha_u=0.7 --set alpha_p=0.3          # the settings before issue 13, for comparison
+        --set alpha_u=0.7 --set alpha_p=0.3 --set pressure_gradient=least_squares  # before issue 13
 """
 
 from __future__ import annotations

@@ -29,7 +29,13 @@ class SimpleSettings:
 
     algorithm: ``"simplec"`` (default) or ``"simple"`` (:data:`solver.simple.ALGORITHMS`).
     alpha_u, alpha_p: momentum and pressure under-relaxation; ``alpha_p`` None means 1 (no pressure
-        relaxation, the SIMPLEC choice; :attr:`pressure_relaxation`). Defaults SIMPLEC, 0.95, None (1).
+        relaxation, the SIMPLEC choice; :attr:`pressure_relaxation`). Defaults SIMPLEC, 0.95, 0.7 (after the
+        start-up, ``startup_alpha_p``). Why 0.7 with SIMPLEC: with the Green–Gauss pressure gradient
+        (``pressure_gradient``) the paper's table5 blade has no stable fixed point at alpha_p 1 (a limit
+        cycle of +-6 % in lift, where OpenFOAM converges); 0.7 converges it from the free stream in 350
+        iterations (0.8: 430, 0.85: 720) and gives the most converged blades of the two robustness sweeps
+        (medium 33 / 50, coarse channel 45 / 50; 0.8: 29 and 43; alpha_p 1 with least squares: 28 and 44),
+        for 12 % more iterations over both (docs/validation-blades.md, session 12).
         With the bounded SIMPLEC coefficient (:func:`solver.simple.simplec_coefficient`) the benchmark
         blade at medium (16 641 cells) has its lift within 0.5 % / 0.1 % of the final value after 215 /
         257 iterations at alpha_u 0.95, 265 / 352 at 0.9 (OpenFOAM's simpleFoam value on the same mesh),
@@ -46,10 +52,12 @@ class SimpleSettings:
         converge or oscillate (43 / 7 with the wall-spacing cap of :mod:`meshing.hybrid`), the converged
         forces unchanged to 0.1 % (docs/benchmarks.md, "Start-up"). It does nothing at
         ``alpha_u <= startup_alpha_u`` (the NACA 0012 case's SIMPLE 0.7).
-    startup_alpha_p: the pressure relaxation of the start-up's iterations (None, the default: ``alpha_p``
-        throughout). Why: with ``alpha_p`` 0.7 from the first iteration, one of the 50 random blades of the
-        campaigns' coarse channel diverged at its leading edge during the start-up; with 1 there and 0.7 after
-        it, it converges (docs/validation-blades.md, session 12).
+    startup_alpha_p: with SIMPLEC, the pressure relaxation of the start-up's iterations; None: ``alpha_p``
+        throughout. SIMPLE always runs at its ``alpha_p``, which it needs from the first iteration (0.3 with
+        alpha_u 0.7). Default 1, SIMPLEC's own value (no pressure relaxation while the start-up's ``alpha_u`` is
+        low): with ``alpha_p`` 0.7 from the first iteration one of the 50 random blades of the campaigns'
+        coarse channel diverged at its leading edge within 9 iterations; with 1 there and 0.7 after it, it
+        converges (docs/validation-blades.md, session 12).
     startup_ramp: the last ``startup_ramp`` iterations of the start-up (at most all of them) rise linearly
         from ``min(alpha_u, startup_alpha_u)`` towards ``alpha_u`` instead of the step at its end (iteration
         ``n - r + j`` of a start-up of ``n`` with a ramp of ``r`` at ``a0 + (alpha_u - a0) j / (r + 1)``,
@@ -116,7 +124,12 @@ class SimpleSettings:
     pressure_gradient: gradient of p in the momentum source and in the Rhie–Chow interpolation:
         ``"least_squares"``, ``"green_gauss"`` (skewness-corrected face values), ``"green_gauss_bounded"`` (the
         same, each face value kept within its two cells' values) or ``"green_gauss_linear"`` (plain linear face
-        values, OpenFOAM's ``Gauss linear``) (:data:`solver.simple.PRESSURE_GRADIENTS`).
+        values, OpenFOAM's ``Gauss linear``) (:data:`solver.simple.PRESSURE_GRADIENTS`). Default
+        ``"green_gauss_bounded"`` (session 12; least squares before): against OpenFOAM on the same meshes the
+        random blades' lift within 1.5 % on 10 of 10 (least squares 9), table4's lift within 0.1 % (-4 %), and
+        the NACA 0012 coarse C-mesh at 16 deg -1.6 % (-5.4 %); the TMR references met on every level. The
+        bound matters at a G0 blade's corner nose, where the unbounded reconstruction put C_max 58 % above
+        OpenFOAM's (docs/validation-blades.md and docs/validation.md, session 12).
     green_gauss_relaxation: under-relaxation, between iterations, of the ``green_gauss`` pressure gradient's
         correction (its difference from ``green_gauss_linear``: the face values' reconstruction terms), in
         (0, 1]; 1: none. The converged solution does not depend on it. Why: the reconstruction brings the
@@ -133,10 +146,10 @@ class SimpleSettings:
 
     algorithm: str = "simplec"
     alpha_u: float = 0.95
-    alpha_p: float | None = None
+    alpha_p: float | None = 0.7
     startup_iterations: int = 50
     startup_alpha_u: float = 0.7
-    startup_alpha_p: float | None = None
+    startup_alpha_p: float | None = 1.0
     startup_ramp: int = 50
     convection: str = "linear_upwind"
     limiter: str = "venkatakrishnan"
@@ -156,7 +169,7 @@ class SimpleSettings:
     early_classify: bool = True
     early_periods: float | None = 8.0
     early_skip: int | None = 100
-    pressure_gradient: str = "least_squares"
+    pressure_gradient: str = "green_gauss_bounded"
     green_gauss_relaxation: float = 1.0
     blas_threads: int | None = 1
     divergence_factor: float = 1e5

@@ -151,7 +151,8 @@ def test_solver_section_choices_are_the_solver_registries():
                                    "omega_production, omega_wall_flux, sst_velocity_gradient, initial"),
     ("solver.alpha_p=0", "'solver.alpha_p' = 0 is outside (0, 1]"),
     ("solver.green_gauss_relaxation=0", "'solver.green_gauss_relaxation' = 0 is outside (0, 1]"),
-    ("solver.pressure_gradient=gauss", "allowed: 'least_squares', 'green_gauss', 'green_gauss_bounded' or 'green_gauss_linear'"),
+    ("solver.pressure_gradient=gauss",
+     "allowed: 'least_squares', 'green_gauss', 'green_gauss_bounded' or 'green_gauss_linear'"),
 ])
 def test_generated_solver_keys_are_validated_with_the_key_named(override, message):
     with pytest.raises(ConfigError, match=re.escape(message)):

@@ -42,8 +42,8 @@ def test_start_up_off(monkeypatch):
 
 def test_start_up_pressure_relaxation(monkeypatch):
     """``startup_alpha_p``: the start-up's iterations apply it, ``alpha_p`` is applied after them (the
-    Green–Gauss pressure gradient's relaxation is 0.7, but 1 during the start-up: docs/validation-blades.md,
-    session 12); None keeps ``alpha_p`` throughout."""
+    default: 1, then 0.7: docs/validation-blades.md, session 12); None keeps ``alpha_p`` throughout, and so
+    does SIMPLE, which needs its small ``alpha_p`` from the first iteration."""
     seen, real = [], simple.outer_iteration
 
     def spy(problem, state, cfg, solver_state):
@@ -57,5 +57,9 @@ def test_start_up_pressure_relaxation(monkeypatch):
     solve_steady(problem, cfg)
     assert seen == [(0.95, 1.0)] * 2 + [(0.95, 0.7)] * 3
     seen.clear()
-    solve_steady(problem, cylinder_settings(max_iter=3, alpha_p=0.7, startup_iterations=2))
+    solve_steady(problem, cylinder_settings(max_iter=3, alpha_p=0.7, startup_iterations=2, startup_alpha_p=None))
     assert [a_p for _, a_p in seen] == [0.7] * 3
+    seen.clear()
+    solve_steady(problem, cylinder_settings(max_iter=3, algorithm="simple", alpha_u=0.7, alpha_p=0.3,
+                                            startup_iterations=2, startup_alpha_p=1.0))
+    assert [a_p for _, a_p in seen] == [0.3] * 3

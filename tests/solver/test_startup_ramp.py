@@ -52,8 +52,8 @@ def test_settings_are_built_only_where_the_relaxation_changes():
     assert seen[0] is seen[1] and seen[0] is not s and seen[0].alpha_u == 0.7
     assert len({id(x) for x in seen[:4]}) == 3                 # plateau, two ramp iterations
     assert seen[4] is s and seen[5] is s                      # the caller's own settings after the start-up
-    assert seen[2] == SimpleSettings(alpha_u=0.7 + 0.25 / 3, startup_iterations=4, startup_alpha_u=0.7,
-                                     startup_ramp=2)
+    assert seen[2] == SimpleSettings(alpha_u=0.7 + 0.25 / 3, alpha_p=1.0, startup_iterations=4, startup_alpha_u=0.7,
+                                     startup_ramp=2)                 # and the start-up's alpha_p
 
 
 def test_the_ramp_is_a_validated_solver_key():
