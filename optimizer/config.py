@@ -256,6 +256,8 @@ SETTING_RULES: dict[str, dict[str, Any]] = {
     "startup_iterations": {"ge": 0, "le": 100_000, "why": "iterations at the start-up relaxation; 0: off"},
     "startup_alpha_u": {"gt": 0, "le": 1, "why": "an under-relaxation factor"},
     "startup_alpha_p": {"gt": 0, "le": 1, "why": "an under-relaxation factor"},
+    "startup_alpha_p_iterations": {"ge": 0, "le": 100_000, "why": "iterations at startup_alpha_p; None: "
+                                   "startup_iterations"},
     "startup_ramp": {"ge": 0, "le": 100_000, "why": "the start-up's last iterations, rising to alpha_u; 0: a step"},
     "convection": {"choices": ("linear_upwind", "upwind")},
     "limiter": {"choices": ("venkatakrishnan", "venkatakrishnan_wang", "barth_jespersen", "none")},
@@ -329,7 +331,7 @@ class _SolverBase(_Frozen):
 
     Every other key is a field of :class:`solver.SimpleSettings` (its meaning, unit and default are
     documented there; ``docs/evaluation.md`` lists them): algorithm, alpha_u, alpha_p, startup_iterations,
-    startup_alpha_u, startup_alpha_p, startup_ramp, convection,
+    startup_alpha_u, startup_alpha_p, startup_alpha_p_iterations, startup_ramp, convection,
     limiter, limiter_k, max_iter, tol, monitor_tol, monitor_window, classify_window, classify_tol,
     stall_tol, stop_window, stop_tol, early_classify, early_periods, early_skip, pressure_gradient,
     green_gauss_relaxation,

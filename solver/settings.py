@@ -58,6 +58,8 @@ class SimpleSettings:
         low): with ``alpha_p`` 0.7 from the first iteration one of the 50 random blades of the campaigns'
         coarse channel diverged at its leading edge within 9 iterations; with 1 there and 0.7 after it, it
         converges (docs/validation-blades.md, session 12).
+    startup_alpha_p_iterations: the iterations run at ``startup_alpha_p`` (None, the default: the start-up's
+        ``startup_iterations``).
     startup_ramp: the last ``startup_ramp`` iterations of the start-up (at most all of them) rise linearly
         from ``min(alpha_u, startup_alpha_u)`` towards ``alpha_u`` instead of the step at its end (iteration
         ``n - r + j`` of a start-up of ``n`` with a ramp of ``r`` at ``a0 + (alpha_u - a0) j / (r + 1)``,
@@ -150,6 +152,7 @@ class SimpleSettings:
     startup_iterations: int = 50
     startup_alpha_u: float = 0.7
     startup_alpha_p: float | None = 1.0
+    startup_alpha_p_iterations: int | None = None
     startup_ramp: int = 50
     convection: str = "linear_upwind"
     limiter: str = "venkatakrishnan"

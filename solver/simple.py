@@ -232,11 +232,13 @@ def iteration_alpha_u(settings: SimpleSettings, it: int) -> float:
 def _startup_settings(settings: SimpleSettings, current: SimpleSettings, it: int) -> SimpleSettings:
     """``current`` where iteration ``it``'s relaxation (:func:`iteration_alpha_u`, and with SIMPLEC
     ``startup_alpha_p`` when given) is its own, else a new one."""
-    if it > settings.startup_iterations:
+    n_p = settings.startup_iterations if settings.startup_alpha_p_iterations is None \
+        else settings.startup_alpha_p_iterations
+    if it > max(settings.startup_iterations, n_p):
         return settings
     alpha_u = iteration_alpha_u(settings, it)
     # SIMPLE keeps its own alpha_p: its small value (0.3 with alpha_u 0.7) is what makes it stable at all
-    simplec = settings.algorithm == "simplec" and settings.startup_alpha_p is not None
+    simplec = settings.algorithm == "simplec" and settings.startup_alpha_p is not None and it <= n_p
     alpha_p = settings.startup_alpha_p if simplec else settings.alpha_p
     if current.alpha_u == alpha_u and current.alpha_p == alpha_p:
         return current

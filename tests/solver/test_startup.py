@@ -1,5 +1,7 @@
 """The gentle start-up of a solve: the first ``startup_iterations`` run at ``min(alpha_u, startup_alpha_u)``."""
 
+import dataclasses
+
 import pytest
 
 pytest.importorskip("gmsh")
@@ -56,6 +58,9 @@ def test_start_up_pressure_relaxation(monkeypatch):
                             startup_alpha_p=1.0)
     solve_steady(problem, cfg)
     assert seen == [(0.95, 1.0)] * 2 + [(0.95, 0.7)] * 3
+    seen.clear()
+    solve_steady(problem, dataclasses.replace(cfg, startup_alpha_p_iterations=4))      # longer than the start-up
+    assert seen == [(0.95, 1.0)] * 4 + [(0.95, 0.7)]
     seen.clear()
     solve_steady(problem, cylinder_settings(max_iter=3, alpha_p=0.7, startup_iterations=2, startup_alpha_p=None))
     assert [a_p for _, a_p in seen] == [0.7] * 3
