@@ -483,7 +483,7 @@ def plot(records: dict, directory: Path = FIGURES) -> list[Path]:
 
     directory.mkdir(parents=True, exist_ok=True)
     out = []
-    fig, ax = plt.subplots(figsize=(6.5, 4.5))
+    fig, ax = plt.subplots(figsize=(11, 5))
     styles = {"openfoam": ("OpenFOAM kOmegaSST", "s--"),
               "millfoil": ("millfoil SST (default: bounded Green–Gauss pressure and SST gradients, session 12)", "o-"),
               SESSION11: ("millfoil SST, least-squares pressure gradient (default of session 11)", "v-."),
@@ -502,7 +502,7 @@ def plot(records: dict, directory: Path = FIGURES) -> list[Path]:
     ax.set(xlabel="α (deg)", ylabel="C_L", title="NACA 0012, Re 6·10⁶, same C-mesh, no point vortex", xlim=(-1, 21),
            ylim=(-0.1, 1.7))
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=8)
+    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))     # beside the curves, not over them
     fig.tight_layout()
     out.append(directory / "naca0012_cl_alpha.png")
     fig.savefig(out[-1], dpi=120)

@@ -290,6 +290,15 @@ SETTING_RULES: dict[str, dict[str, Any]] = {
 _SCALARS = (bool, int, float, str)
 
 
+#: The blade evaluations' own defaults where they differ from :class:`solver.SimpleSettings`' (the solver's
+#: defaults for any flow, its laminar verification cases included). The bounded Green–Gauss pressure gradient
+#: brings the blades' lift and the NACA 0012 near stall to OpenFOAM's on the same meshes, and alpha_p 0.7 after
+#: the start-up keeps table5 and most of the sweeps' blades converged with it; on the manufactured solution's
+#: uniformly refined triangles it costs velocity order (1.98 -> 1.68 at the medium level), so it is not the
+#: solver's default (docs/validation-blades.md, docs/validation.md, session 12).
+BLADE_SETTINGS: dict[str, Any] = {"pressure_gradient": "green_gauss_bounded", "alpha_p": 0.7}
+
+
 def _setting_fields() -> dict[str, tuple[Any, Any]]:
     """The ``solver:`` keys made from :class:`solver.SimpleSettings`: ``{name: (annotation, Field)}`` for
     every field with a scalar (or optional scalar) type and a plain default, bar
@@ -307,8 +316,9 @@ def _setting_fields() -> dict[str, tuple[Any, Any]]:
         why, unit = rules.pop("why", None), rules.pop("unit", None)
         annotation = Literal[choices] if choices else base
         extra = {"unit": unit} if unit else None
+        default = BLADE_SETTINGS.get(f.name, f.default)
         out[f.name] = (annotation | None if optional else annotation,
-                       Field(f.default, description=why, json_schema_extra=extra, **rules))
+                       Field(default, description=why, json_schema_extra=extra, **rules))
     return out
 
 

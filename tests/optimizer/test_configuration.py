@@ -10,6 +10,7 @@ import yaml
 from geometry import evaluate_blade
 from geometry.examples import TABLE4_C2_DESIGN, TABLE5_G1_TOOLPATH
 from optimizer.config import (
+    BLADE_SETTINGS,
     SETTING_KEYS,
     SETTING_RULES,
     SETTINGS_NOT_CONFIGURED,
@@ -117,14 +118,17 @@ def test_saved_config_reads_back_the_same():
 def test_solver_settings_are_the_solvers_own_with_the_blade_monitored():
     settings = simple_settings(load_config())
     assert settings == dataclasses.replace(SimpleSettings(), monitor_groups=("blade",),
-                                           stop_monitors=("fy:blade", "c_max"))
+                                           stop_monitors=("fy:blade", "c_max"), **BLADE_SETTINGS)
     changed = simple_settings(load_config(overrides=["solver.alpha_u=0.5", "solver.max_iter=7"]))
     assert (changed.alpha_u, changed.max_iter) == (0.5, 7)
 
 
 def test_solver_section_defaults_are_the_simple_settings_defaults():
-    defaults = SimpleSettings()
+    """The solver's defaults, except the blade evaluations' own (:data:`optimizer.config.BLADE_SETTINGS`: the
+    bounded Green–Gauss pressure gradient and alpha_p 0.7, session 12)."""
+    defaults = dataclasses.replace(SimpleSettings(), **BLADE_SETTINGS)
     assert SolverConfig().settings() == {k: getattr(defaults, k) for k in SETTING_KEYS}
+    assert BLADE_SETTINGS == {"pressure_gradient": "green_gauss_bounded", "alpha_p": 0.7}
     fields = {f.name for f in dataclasses.fields(SimpleSettings)}
     # every field is a key of the section or is left out for a stated reason
     assert fields == set(SETTING_KEYS) | set(SETTINGS_NOT_CONFIGURED)
