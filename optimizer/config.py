@@ -292,11 +292,14 @@ _SCALARS = (bool, int, float, str)
 
 #: The blade evaluations' own defaults where they differ from :class:`solver.SimpleSettings`' (the solver's
 #: defaults for any flow, its laminar verification cases included). The bounded Green–Gauss pressure gradient
-#: brings the blades' lift and the NACA 0012 near stall to OpenFOAM's on the same meshes, and alpha_p 0.7 after
-#: the start-up keeps table5 and most of the sweeps' blades converged with it; on the manufactured solution's
-#: uniformly refined triangles it costs velocity order (1.98 -> 1.68 at the medium level), so it is not the
-#: solver's default (docs/validation-blades.md, docs/validation.md, session 12).
-BLADE_SETTINGS: dict[str, Any] = {"pressure_gradient": "green_gauss_bounded", "alpha_p": 0.7}
+#: brings the blades' lift and the NACA 0012 near stall to OpenFOAM's on the same meshes, and alpha_p 0.7 keeps
+#: table5 and most of the sweeps' blades converged with it; on the manufactured solution's uniformly refined
+#: triangles it costs velocity order (1.98 -> 1.68 at the medium level), so it is not the solver's default.
+#: alpha_p applies from iteration 151 (the first 150 at startup_alpha_p, 1): from iteration 51 it slowed the
+#: coarse blades' lift (bench_openfoam 4 of 6 cases within OpenFOAM's time, 6 of 6 from 151) for one more
+#: converged blade in 100 (docs/validation-blades.md, docs/validation.md, docs/performance.md, session 12).
+BLADE_SETTINGS: dict[str, Any] = {"pressure_gradient": "green_gauss_bounded", "alpha_p": 0.7,
+                                  "startup_alpha_p_iterations": 150}
 
 
 def _setting_fields() -> dict[str, tuple[Any, Any]]:

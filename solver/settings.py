@@ -31,7 +31,7 @@ class SimpleSettings:
     algorithm: ``"simplec"`` (default) or ``"simple"`` (:data:`solver.simple.ALGORITHMS`).
     alpha_u, alpha_p: momentum and pressure under-relaxation; ``alpha_p`` None means 1 (no pressure
         relaxation, the SIMPLEC choice; :attr:`pressure_relaxation`). Defaults SIMPLEC, 0.95, None (1); the
-        blade evaluations set 0.7 (after the start-up, ``startup_alpha_p``) with their Green–Gauss pressure
+        blade evaluations set 0.7 (from iteration 151, ``startup_alpha_p_iterations``) with their Green–Gauss pressure
         gradient (:data:`optimizer.config.BLADE_SETTINGS`): with it the paper's table5 blade has no stable
         fixed point at alpha_p 1 (a limit cycle of +-6 % in lift, where OpenFOAM converges); 0.7 converges
         it from the free stream in 350 iterations (0.8: 430, 0.85: 720) and gives the most converged blades
@@ -60,7 +60,9 @@ class SimpleSettings:
         coarse channel diverged at its leading edge within 9 iterations; with 1 there and 0.7 after it, it
         converges (docs/validation-blades.md, session 12).
     startup_alpha_p_iterations: the iterations run at ``startup_alpha_p`` (None, the default: the start-up's
-        ``startup_iterations``).
+        ``startup_iterations``). The blade evaluations run 150: most coarse blades' lift is within 0.1 % of its
+        final value by then, which alpha_p 0.7 from iteration 51 delayed by up to 20 % (docs/performance.md,
+        session 12).
     startup_ramp: the last ``startup_ramp`` iterations of the start-up (at most all of them) rise linearly
         from ``min(alpha_u, startup_alpha_u)`` towards ``alpha_u`` instead of the step at its end (iteration
         ``n - r + j`` of a start-up of ``n`` with a ramp of ``r`` at ``a0 + (alpha_u - a0) j / (r + 1)``,

@@ -128,7 +128,8 @@ def test_solver_section_defaults_are_the_simple_settings_defaults():
     bounded Green–Gauss pressure gradient and alpha_p 0.7, session 12)."""
     defaults = dataclasses.replace(SimpleSettings(), **BLADE_SETTINGS)
     assert SolverConfig().settings() == {k: getattr(defaults, k) for k in SETTING_KEYS}
-    assert BLADE_SETTINGS == {"pressure_gradient": "green_gauss_bounded", "alpha_p": 0.7}
+    assert BLADE_SETTINGS == {"pressure_gradient": "green_gauss_bounded", "alpha_p": 0.7,
+                              "startup_alpha_p_iterations": 150}
     fields = {f.name for f in dataclasses.fields(SimpleSettings)}
     # every field is a key of the section or is left out for a stated reason
     assert fields == set(SETTING_KEYS) | set(SETTINGS_NOT_CONFIGURED)
