@@ -98,6 +98,10 @@ def test_an_oscillation_or_drift_that_would_settle_before_max_iter_goes_on_a_ste
     it = np.arange(600)
     creeping = 25.0 - 0.5 * np.exp(-it / 100.0)                                       # converging slowly
     assert established(_hist(creeping), 600, CFG) is None
+    # a drift that slows down but not geometrically (it levels off at iteration 1 000): the extrapolation of
+    # its last two windows would still have called it drifting at the cap (0.4 x 0.71^7 > 0.025); it runs on
+    slowing = 25.0 + 4e-3 * it - 2e-6 * it**2
+    assert established(_hist(slowing), 600, CFG) is None
     drift = 25.0 + 2e-3 * it
     status, _, cls = established(_hist(drift), 600, CFG)
     assert status == "not_converged" and cls.status == "not_converged"
