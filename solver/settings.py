@@ -26,7 +26,8 @@ class SimpleSettings:
     """Settings of the steady pressure-based solver (every option has a default).
 
     The defaults are those of the blade evaluations (Re ~ 1e6, k-omega SST, first cell at y+ ~ 1), except
-    ``pressure_gradient`` and ``alpha_p``, which the blade evaluations set (:data:`optimizer.config.BLADE_SETTINGS`):
+    ``pressure_gradient``, ``alpha_p`` and ``startup_alpha_p_iterations``, which the blade evaluations set
+    (:data:`optimizer.config.BLADE_SETTINGS`):
 
     algorithm: ``"simplec"`` (default) or ``"simple"`` (:data:`solver.simple.ALGORITHMS`).
     alpha_u, alpha_p: momentum and pressure under-relaxation; ``alpha_p`` None means 1 (no pressure
@@ -34,9 +35,10 @@ class SimpleSettings:
         blade evaluations set 0.7 (from iteration 151, ``startup_alpha_p_iterations``) with their Green–Gauss pressure
         gradient (:data:`optimizer.config.BLADE_SETTINGS`): with it the paper's table5 blade has no stable
         fixed point at alpha_p 1 (a limit cycle of +-6 % in lift, where OpenFOAM converges); 0.7 converges
-        it from the free stream in 350 iterations (0.8: 430, 0.85: 720) and gives the most converged blades
-        of the two robustness sweeps (medium 33 / 50, coarse channel 45 / 50; 0.8: 29 and 43; alpha_p 1 with
-        least squares: 28 and 44), for 12 % more iterations over both (docs/validation-blades.md, session 12).
+        it from the free stream in 350-370 iterations (0.8: 430, 0.85: 720) and gives the most converged
+        blades of the two robustness sweeps (from iteration 151: medium 34 / 50, coarse channel 45 / 50, for 8 %
+        and 16 % more iterations; 0.8 from iteration 51: 29 and 43; alpha_p 1 with least squares: 28 and 44)
+        (docs/validation-blades.md, session 12).
         With the bounded SIMPLEC coefficient (:func:`solver.simple.simplec_coefficient`) the benchmark
         blade at medium (16 641 cells) has its lift within 0.5 % / 0.1 % of the final value after 215 /
         257 iterations at alpha_u 0.95, 265 / 352 at 0.9 (OpenFOAM's simpleFoam value on the same mesh),
