@@ -139,6 +139,15 @@ class SimpleSettings:
         leading-edge stall, and the NACA 0012 coarse C-mesh at 16 deg -1.6 % (-5.4 %); the TMR references met
         on every level. The bound matters at a G0 blade's corner nose, where the unbounded reconstruction put
         C_max 58 % above OpenFOAM's (docs/validation-blades.md and docs/validation.md, session 12).
+    face_velocity: the velocity that carries the Rhie–Chow mass flux through each face
+        (:func:`solver.pressure.face_velocity`): ``"corrected"``, reconstructed from both cells with their
+        gradients (exact for linear fields on skewed meshes), or ``"bounded"``, the same with each
+        component kept within its two cells' values. Default ``"corrected"``; the blade evaluations and the
+        NACA 0012 case use ``"bounded"`` (session 13): at the trailing-edge corner of the C-mesh the wall
+        cell's boundary-layer gradient extrapolated to the face overshoots and removes the trailing-edge
+        loading (the coarse lift at 2-8 deg +1.1 ... +1.75 % above OpenFOAM's on the same mesh, bounded
+        +0.8 ... +1.0 %), and on the blades it halves table5's C_max gap and brings random16's and random18's
+        within 1 % (docs/validation.md, docs/validation-blades.md).
     green_gauss_relaxation: under-relaxation, between iterations, of the ``green_gauss`` pressure gradient's
         correction (its difference from ``green_gauss_linear``: the face values' reconstruction terms), in
         (0, 1]; 1: none. The converged solution does not depend on it. Why: the reconstruction brings the
@@ -180,6 +189,7 @@ class SimpleSettings:
     early_periods: float | None = 8.0
     early_skip: int | None = 100
     pressure_gradient: str = "least_squares"
+    face_velocity: str = "corrected"
     green_gauss_relaxation: float = 1.0
     blas_threads: int | None = 1
     divergence_factor: float = 1e5

@@ -42,7 +42,14 @@ from .monitors import (
     stop_monitor_names,
     update_monitors,
 )
-from .pressure import correct_flux, mass_imbalance, predicted_velocity_flux, pressure_correction_system, rhie_chow_flux
+from .pressure import (
+    FACE_VELOCITIES,
+    correct_flux,
+    mass_imbalance,
+    predicted_velocity_flux,
+    pressure_correction_system,
+    rhie_chow_flux,
+)
 from .problem import FlowState, Problem, initial_state, turbulent_fields
 from .results import FlowResults
 from .settings import SimpleSettings
@@ -142,11 +149,12 @@ def outer_iteration(problem: Problem, s: FlowState, cfg: SimpleSettings, solver_
     # 3. Rhie–Chow fluxes (Majumdar's term keeps the converged flux independent of alpha_u). The cell
     #    pressure gradient interpolated to the faces is the momentum source's (grad_p_mom): only then does
     #    the face flux's pressure term reduce to the compact face gradient that the p' equation sees
-    relax = (1.0 - cfg.alpha_u) * (s.flux - predicted_velocity_flux(m, bnd, s.u, u_b, grad_u, rho))
+    bounded = _lookup(FACE_VELOCITIES, "face_velocity", cfg.face_velocity)
+    relax = (1.0 - cfg.alpha_u) * (s.flux - predicted_velocity_flux(m, bnd, s.u, u_b, grad_u, rho, bounded))
     r_au = m.volume / mom.a_p
     u_b_star = bnd.velocity(m, u_star, grad_u)
     grad_u_star = ls_gradient(m, u_star, u_b_star)
-    flux = rhie_chow_flux(m, bnd, u_star, u_b_star, grad_u_star, s.p, p_b, grad_p_mom, r_au, rho, relax)
+    flux = rhie_chow_flux(m, bnd, u_star, u_b_star, grad_u_star, s.p, p_b, grad_p_mom, r_au, rho, relax, bounded)
     imbalance = mass_imbalance(m, flux)
     res["continuity"] = float(np.abs(imbalance).sum() / (np.abs(flux).sum() + 1e-300))
     # 4. pressure correction

@@ -125,11 +125,11 @@ def test_solver_settings_are_the_solvers_own_with_the_blade_monitored():
 
 def test_solver_section_defaults_are_the_simple_settings_defaults():
     """The solver's defaults, except the blade evaluations' own (:data:`optimizer.config.BLADE_SETTINGS`: the
-    bounded Green–Gauss pressure gradient and alpha_p 0.7, session 12)."""
+    bounded Green–Gauss pressure gradient and alpha_p 0.7, session 12; the bounded face velocity, session 13)."""
     defaults = dataclasses.replace(SimpleSettings(), **BLADE_SETTINGS)
     assert SolverConfig().settings() == {k: getattr(defaults, k) for k in SETTING_KEYS}
-    assert BLADE_SETTINGS == {"pressure_gradient": "green_gauss_bounded", "alpha_p": 0.7,
-                              "startup_alpha_p_iterations": 150}
+    assert BLADE_SETTINGS == {"pressure_gradient": "green_gauss_bounded", "face_velocity": "bounded",
+                              "alpha_p": 0.7, "startup_alpha_p_iterations": 150}
     fields = {f.name for f in dataclasses.fields(SimpleSettings)}
     # every field is a key of the section or is left out for a stated reason
     assert fields == set(SETTING_KEYS) | set(SETTINGS_NOT_CONFIGURED)
@@ -139,10 +139,11 @@ def test_solver_section_defaults_are_the_simple_settings_defaults():
 def test_solver_section_choices_are_the_solver_registries():
     from solver.assembly import CONVECTION_SCHEMES
     from solver.gradient import LIMITERS
+    from solver.pressure import FACE_VELOCITIES
     from solver.simple import ALGORITHMS, PRESSURE_GRADIENTS
 
     registries = {"algorithm": ALGORITHMS, "convection": CONVECTION_SCHEMES, "limiter": LIMITERS,
-                  "pressure_gradient": PRESSURE_GRADIENTS}
+                  "pressure_gradient": PRESSURE_GRADIENTS, "face_velocity": FACE_VELOCITIES}
     for key, registry in registries.items():
         assert set(SETTING_RULES[key]["choices"]) == set(registry), key
     text_keys = {k for k in SETTING_KEYS if isinstance(getattr(SimpleSettings(), k), str)}
@@ -158,6 +159,7 @@ def test_solver_section_choices_are_the_solver_registries():
     ("solver.green_gauss_relaxation=0", "'solver.green_gauss_relaxation' = 0 is outside (0, 1]"),
     ("solver.pressure_gradient=gauss",
      "allowed: 'least_squares', 'green_gauss', 'green_gauss_bounded' or 'green_gauss_linear'"),
+    ("solver.face_velocity=clipped", "'solver.face_velocity' = 'clipped' is not allowed; allowed: 'corrected' or 'bounded'"),
 ])
 def test_generated_solver_keys_are_validated_with_the_key_named(override, message):
     with pytest.raises(ConfigError, match=re.escape(message)):

@@ -32,9 +32,9 @@ def spy_gradients(monkeypatch):
     log = {"momentum": [], "ls": [], "rhie_chow": []}
     original = simple.rhie_chow_flux
 
-    def rhie_chow(m, bnd, u, u_b, grad_u, p, p_b, grad_p, r_au, rho, relax=None):
+    def rhie_chow(m, bnd, u, u_b, grad_u, p, p_b, grad_p, r_au, rho, relax=None, bounded=False):
         log["rhie_chow"].append(grad_p)
-        return original(m, bnd, u, u_b, grad_u, p, p_b, grad_p, r_au, rho, relax)
+        return original(m, bnd, u, u_b, grad_u, p, p_b, grad_p, r_au, rho, relax, bounded)
 
     def wrap(fn):
         def f(mesh, p, p_b, grad_p):

@@ -81,9 +81,10 @@ def test_deferred_correction_of_zero_gradient_is_zero(mesh):
     assert out.shape == (mesh.n_internal, 2) and not out.any()
 
 
-def face_velocity_numpy(mesh, u, u_b, grad_u):
+def face_velocity_numpy(mesh, u, u_b, grad_u, bounded=False):
     """The numpy form of the capped quadratic face velocity (the reference of
-    :func:`kernels.cap_quadratic_correction` inside :func:`solver.pressure.face_velocity`)."""
+    :func:`kernels.cap_quadratic_correction` and, ``bounded``, :func:`kernels.clip_to_cells` inside
+    :func:`solver.pressure.face_velocity`)."""
     from solver.gradient import face_average, face_operators, interpolate_corrected
     from solver.pressure import QUADRATIC_CAP, _triangles
 
@@ -91,25 +92,54 @@ def face_velocity_numpy(mesh, u, u_b, grad_u):
     tri = _triangles(mesh)
     ni = mesh.n_internal
     o, n = mesh.owner[:ni], mesh.neighbour[:ni]
+    if bounded:
+        lin = np.clip(lin, np.minimum(u[o], u[n]), np.maximum(u[o], u[n]))
     slope = np.linalg.norm(grad_u, axis=-1)
     cap = QUADRATIC_CAP * face_operators(mesh)["d_length"][:ni, None] * 0.5 * (slope[o] + slope[n])
     cap *= (tri[o] | tri[n])[:, None]
     return lin + np.clip(face_average(mesh, u, u_b) - lin, -cap, cap)
 
 
-def test_face_velocity_equals_numpy_form(mesh):
-    from solver.pressure import _quadratic_faces, face_velocity
-
+def rough_velocity(mesh):
+    """A smooth velocity with noise (so that the quadratic cap and the bound act on some faces), its
+    boundary values and LS gradient."""
     rng = np.random.default_rng(3)
     xy, xb = mesh.centroid, mesh.face_centre[mesh.n_internal:]
     u = np.column_stack([np.sin(3 * xy[:, 0]) * xy[:, 1] ** 2, np.cos(2 * xy[:, 1])])
-    u += 0.05 * rng.standard_normal((mesh.n_cells, 2))           # rough: the cap acts on some faces
+    u += 0.05 * rng.standard_normal((mesh.n_cells, 2))
     u_b = np.column_stack([np.sin(3 * xb[:, 0]) * xb[:, 1] ** 2, np.cos(2 * xb[:, 1])])
-    grad_u = ls_gradient(mesh, u, u_b)
-    ref = face_velocity_numpy(mesh, u, u_b, grad_u)
-    out = face_velocity(mesh, u, u_b, grad_u)
+    return u, u_b, ls_gradient(mesh, u, u_b)
+
+
+@pytest.mark.parametrize("bounded", [False, True])
+def test_face_velocity_equals_numpy_form(mesh, bounded):
+    from solver.pressure import _quadratic_faces, face_velocity
+
+    u, u_b, grad_u = rough_velocity(mesh)
+    ref = face_velocity_numpy(mesh, u, u_b, grad_u, bounded)
+    out = face_velocity(mesh, u, u_b, grad_u, bounded)
     assert 0 < _quadratic_faces(mesh).size < mesh.n_internal         # mixed mesh: both kinds of face
     np.testing.assert_array_equal(out, ref)
+
+
+def test_bounded_face_velocity_stays_within_its_two_cells_on_quadrilaterals():
+    """``bounded``: the reconstruction is clipped where it overshoots both cells and kept where it does not
+    (on quadrilaterals there is no quadratic correction on top)."""
+    from solver.gradient import interpolate_corrected
+    from solver.pressure import face_velocity
+
+    quads = square_mesh(10, triangles="none", strength=0.4, distort=0.3, seed=5, size=2.0)
+    u, u_b, grad_u = rough_velocity(quads)
+    ni = quads.n_internal
+    lo = np.minimum(u[quads.owner[:ni]], u[quads.neighbour[:ni]])
+    hi = np.maximum(u[quads.owner[:ni]], u[quads.neighbour[:ni]])
+    corrected = interpolate_corrected(quads, u, grad_u)
+    inside = (corrected >= lo) & (corrected <= hi)
+    assert 0 < inside.sum() < inside.size                            # the bound acts on some faces only
+    out = face_velocity(quads, u, u_b, grad_u, bounded=True)
+    assert ((out >= lo) & (out <= hi)).all()
+    np.testing.assert_array_equal(out[inside], corrected[inside])
+    np.testing.assert_array_equal(face_velocity(quads, u, u_b, grad_u), corrected)
 
 
 def test_rhie_chow_faces_equal_numpy_form(mesh):
