@@ -151,8 +151,8 @@ def rhie_chow_flux(mesh: FVMesh, bnd: BoundaryData, u: np.ndarray, u_b: np.ndarr
     """Face mass fluxes ``(nf,)`` from the predicted velocity ``u (nc, 2)`` with gradient ``grad_u``.
 
     r_au: ``V / a_P`` per cell, m² s/kg · m² (so that ``r_au * grad p`` is a velocity);
-    relax_term: ``(1 - alpha)(F_old - rho ū_old·S)`` or None; ``bounded``: :func:`face_velocity`'s. Fixed-velocity faces carry
-    ``rho u_b·S``, symmetry faces zero, zero-gradient (outlet) faces the face mean of
+    relax_term: ``(1 - alpha)(F_old - rho ū_old·S)`` or None; ``bounded``: :func:`face_velocity`'s.
+    Fixed-velocity faces carry ``rho u_b·S``, symmetry faces zero, zero-gradient (outlet) faces the face mean of
     :func:`outflow_face_velocity` with the pressure-smoothing term against the prescribed face pressure.
     """
     ni = mesh.n_internal

@@ -159,7 +159,8 @@ def test_solver_section_choices_are_the_solver_registries():
     ("solver.green_gauss_relaxation=0", "'solver.green_gauss_relaxation' = 0 is outside (0, 1]"),
     ("solver.pressure_gradient=gauss",
      "allowed: 'least_squares', 'green_gauss', 'green_gauss_bounded' or 'green_gauss_linear'"),
-    ("solver.face_velocity=clipped", "'solver.face_velocity' = 'clipped' is not allowed; allowed: 'corrected' or 'bounded'"),
+    ("solver.face_velocity=clipped",
+     "'solver.face_velocity' = 'clipped' is not allowed; allowed: 'corrected' or 'bounded'"),
 ])
 def test_generated_solver_keys_are_validated_with_the_key_named(override, message):
     with pytest.raises(ConfigError, match=re.escape(message)):
