@@ -305,11 +305,17 @@ def green_gauss_gradient(mesh: FVMesh, phi: np.ndarray, phi_b: np.ndarray, grad:
     that cannot overshoot, e.g. the log layer's concave profile extrapolated from a wall cell)."""
     phi_f = interpolate_corrected(mesh, phi, grad)
     if bounded:
-        ni = mesh.n_internal
-        _, _, owner, neighbour = linear_weights(mesh)
-        faces, cells = np.ascontiguousarray(phi_f.reshape(ni, -1)), np.ascontiguousarray(phi.reshape(len(phi), -1))
-        phi_f = clip_to_cells(faces, cells, owner, neighbour).reshape(phi_f.shape)
+        phi_f = bound_to_cells(mesh, phi_f, phi)
     return gauss_sum(mesh, np.concatenate([phi_f, phi_b]))
+
+
+def bound_to_cells(mesh: FVMesh, phi_f: np.ndarray, phi: np.ndarray) -> np.ndarray:
+    """Internal-face values ``phi_f (ni, ...)``, each component clipped to the range of its owner's and neighbour's
+    values ``phi (nc, ...)`` (one compiled pass, :func:`solver.kernels.clip_to_cells`)."""
+    _, _, owner, neighbour = linear_weights(mesh)
+    faces = np.ascontiguousarray(phi_f.reshape(mesh.n_internal, -1), dtype=float)
+    cells = np.ascontiguousarray(phi.reshape(len(phi), -1), dtype=float)
+    return clip_to_cells(faces, cells, owner, neighbour).reshape(phi_f.shape)
 
 
 def green_gauss_linear_gradient(mesh: FVMesh, phi: np.ndarray, phi_b: np.ndarray, grad=None) -> np.ndarray:

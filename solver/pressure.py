@@ -20,6 +20,7 @@ import numpy as np
 from .boundary import FIXED, ZERO_GRADIENT, BoundaryData
 from .fvmesh import FVMesh
 from .gradient import (
+    bound_to_cells,
     boundary_face_curvature,
     face_average,
     face_operators,
@@ -27,7 +28,7 @@ from .gradient import (
     interpolate_linear,
     linear_weights,
 )
-from .kernels import cap_quadratic_correction, clip_to_cells, dot_last, rhie_chow_faces
+from .kernels import cap_quadratic_correction, dot_last, rhie_chow_faces
 from .linalg import FVPattern, LinearSystem
 
 #: Face velocities of the mass flux by name (:attr:`solver.SimpleSettings.face_velocity`): True where the
@@ -69,8 +70,7 @@ def face_velocity(mesh: FVMesh, u: np.ndarray, u_b: np.ndarray, grad_u: np.ndarr
     """
     lin = interpolate_corrected(mesh, u, grad_u)
     if bounded:
-        _, _, owner, neighbour = linear_weights(mesh)
-        clip_to_cells(lin, np.ascontiguousarray(u, dtype=float), owner, neighbour)
+        lin = bound_to_cells(mesh, lin, u)
     faces = _quadratic_faces(mesh)
     if not faces.size:                    # all quads: nothing to correct, no quadratic operators built
         return lin
