@@ -299,8 +299,8 @@ _SCALARS = (bool, int, float, str)
 #: alpha_p applies from iteration 151 (the first 150 at startup_alpha_p, 1): from iteration 51 it slowed the
 #: coarse blades' lift (bench_openfoam 4 of 6 cases within OpenFOAM's time, 6 of 6 from 151) for one more
 #: converged blade in 100 (docs/validation-blades.md, docs/validation.md, docs/performance.md, session 12).
-#: The bounded face velocity of the mass flux brings random16's and random18's C_max within 1 % of OpenFOAM's
-#: and halves table5's C_max gap (session 13).
+#: The bounded face velocity of the mass flux brings random18's and table5's C_max within 1 % of OpenFOAM's on the
+#: same medium meshes (random16's to -1.03 %), for lift further from OpenFOAM's on coarse meshes (session 13).
 BLADE_SETTINGS: dict[str, Any] = {"pressure_gradient": "green_gauss_bounded", "face_velocity": "bounded",
                                   "alpha_p": 0.7, "startup_alpha_p_iterations": 150}
 

@@ -143,12 +143,13 @@ class SimpleSettings:
         (:func:`solver.pressure.face_velocity`): ``"corrected"``, reconstructed from both cells with their
         gradients (exact for linear fields on skewed meshes), or ``"bounded"``, the same with each
         component kept within its two cells' values. Default ``"corrected"``; the blade evaluations and the
-        NACA 0012 case use ``"bounded"`` (session 13): at the trailing-edge corner of the C-mesh the wall
-        cell's boundary-layer gradient extrapolated to the face overshoots and removes the trailing-edge
-        loading (the coarse lift at 2-8 deg +1.1 ... +1.75 % above OpenFOAM's on the same mesh, bounded
-        +0.8 ... +1.0 %), and on the blades it halves table5's C_max gap (-1.21 -> -0.58 %) and narrows
-        random16's and random18's (-1.27 -> -1.03 %, -1.29 -> -0.89 %); the robustness sweeps keep every
-        class. Not the solver's default: the DFG cylinder's coarse lift error becomes 0.00428, above its 0.004
+        NACA 0012 case use ``"bounded"`` (session 13): at the trailing edge of the C-mesh the boundary-layer
+        cells' gradients extrapolated to the faces they share with the wake's overshoot and remove the
+        trailing-edge loading (the coarse lift at 2-8 deg +1.1 ... +1.75 % above OpenFOAM's on the same mesh,
+        bounded +0.8 ... +1.0 %), and on the medium blades it halves table5's C_max gap (-1.21 -> -0.58 %)
+        and narrows random16's and random18's (-1.27 -> -1.03 %, -1.29 -> -0.89 %); the robustness sweeps
+        keep every class. On coarse blade meshes it moves the lift 0.2-1.9 % up, away from OpenFOAM's on most.
+        Not the solver's default: the DFG cylinder's coarse lift error becomes 0.00428, above its 0.004
         (docs/validation.md, docs/validation-blades.md, session 13).
     green_gauss_relaxation: under-relaxation, between iterations, of the ``green_gauss`` pressure gradient's
         correction (its difference from ``green_gauss_linear``: the face values' reconstruction terms), in
