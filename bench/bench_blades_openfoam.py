@@ -175,15 +175,15 @@ def openfoam_run(config, fvmesh, case: Path, iterations: int) -> dict:
 def millfoil_run(config, fvmesh, sst: dict) -> dict:
     """millfoil's blade solve (:func:`optimizer.pipeline.solve_flow`; with ``sst`` SST fields changed, the
     same problem with that turbulence model): class, values compared, timings."""
-    from optimizer.pipeline import boundary_conditions, simple_settings, solve_flow
-    from solver import SST, Fluid, Problem, initial_state, solve_steady
+    from optimizer.pipeline import boundary_conditions, simple_settings, solve_flow, turbulence_model
+    from solver import Fluid, Problem, initial_state, solve_steady
 
     s = config.solver
     if not sst:
         flow = solve_flow(config, fvmesh)
     else:
         problem = Problem.create(fvmesh, boundary_conditions(config), Fluid(config.flow.density, config.flow.viscosity),
-                                 turbulence=SST(wall_treatment=s.wall_treatment, **sst))
+                                 turbulence=dataclasses.replace(turbulence_model(config), **sst))
         u0 = (config.flow.speed, 0.0) if s.initial == "freestream" else (0.0, 0.0)
         flow = solve_steady(problem, simple_settings(config), initial_state(problem, u0))
     monitors = {k: np.asarray(v, float) for k, v in flow.monitors.items()}

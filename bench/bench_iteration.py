@@ -89,14 +89,13 @@ def blade_problem(level: str):
     """The benchmark blade's problem, settings and free-stream state at ``level``."""
     from optimizer import pipeline
     from optimizer.config import load_config
-    from solver import SST, Fluid, Problem
+    from solver import Fluid, Problem
     from solver.problem import initial_state
 
     cfg = load_config(str(BENCHMARK), [f"mesh.level={level}"])
     _, fv = pipeline._meshes(cfg, pipeline.blade_profile(cfg))
-    s = cfg.solver
     problem = Problem.create(fv, pipeline.boundary_conditions(cfg), Fluid(cfg.flow.density, cfg.flow.viscosity),
-                             turbulence=SST(wall_treatment=s.wall_treatment))
+                             turbulence=pipeline.turbulence_model(cfg))
     return problem, pipeline.simple_settings(cfg), initial_state(problem, (cfg.flow.speed, 0.0))
 
 

@@ -34,6 +34,7 @@ difference of the discrete equations, not of the start (hysteresis), and the dri
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import os
 import shutil
@@ -313,8 +314,7 @@ def run_millfoil(level: str, alpha_deg: float, max_iter: int, state_file: Path |
     (``limiter``, ``limiter_k``, ``pressure_gradient``, ..., through :func:`naca_settings`) and
     :class:`solver.SST` fields (``face_interpolation``, ``production_measure``, ...); numbers are parsed."""
     from solver import SimpleSettings
-    from solver.turbulence import SST
-    from solver.validation.naca0012 import Convergence, naca_settings, run_naca0012
+    from solver.validation.naca0012 import Convergence, naca_settings, naca_turbulence, run_naca0012
 
     def value(v):
         try:
@@ -327,9 +327,9 @@ def run_millfoil(level: str, alpha_deg: float, max_iter: int, state_file: Path |
     sst = {k: v for k, v in variant.items() if k not in simple}
     conv = Convergence(max_iter=max_iter)
     settings = naca_settings(max_iter=conv.chunk, **simple) if simple else None
-    turbulence = SST(wall_treatment="low_re", **sst) if sst else None
+    turbulence = dataclasses.replace(naca_turbulence(), **sst) if sst else None
     if start_from is not None:
-        write_openfoam_start(start_from, level, alpha_deg, state_file, turbulence or SST(wall_treatment="low_re"))
+        write_openfoam_start(start_from, level, alpha_deg, state_file, turbulence or naca_turbulence())
     t0 = time.perf_counter()
     r = run_naca0012(alpha_deg, level, vortex_correction=False, convergence=conv, state_file=state_file,
                      max_seconds=max_seconds, settings=settings, turbulence=turbulence)
@@ -474,6 +474,9 @@ SESSION11 = "millfoil-s11"
 #: The code label of the records of session 12's default (bounded Green–Gauss pressure gradient, skewness-corrected
 #: face velocity; relabelled when session 13 made the bounded face velocity the case's default).
 SESSION12 = "millfoil-s12"
+#: The code label of the records of session 13's default (bounded face velocity, unlimited omega production;
+#: relabelled when session 14 made OpenFOAM's limited omega production the case's default).
+SESSION13 = "millfoil-s13"
 
 
 def plot(records: dict, directory: Path = FIGURES) -> list[Path]:
@@ -488,11 +491,11 @@ def plot(records: dict, directory: Path = FIGURES) -> list[Path]:
     out = []
     fig, ax = plt.subplots(figsize=(11, 5))
     styles = {"openfoam": ("OpenFOAM kOmegaSST", "s--"),
-              "millfoil": ("millfoil SST (default: bounded face velocity, p and SST gradients, session 13)", "o-"),
-              SESSION12: ("millfoil SST, corrected face velocity (default of session 12)", "^-"),
-              SESSION11: ("millfoil SST, least-squares pressure gradient (default of session 11)", "v-.")}
-    # the records of older defaults (LEAST_SQUARES, SESSION10) stay in the JSONL and the report's table, not on
-    # the figure: with both levels, more curves hide the ones compared
+              "millfoil": ("millfoil SST (default: limited ω production, bounded face velocity, session 14)", "o-"),
+              SESSION13: ("millfoil SST, unlimited ω production (default of session 13)", "^-"),
+              SESSION12: ("millfoil SST, corrected face velocity (default of session 12)", "v-.")}
+    # the records of older defaults (SESSION11, LEAST_SQUARES, SESSION10) stay in the JSONL and the report's table,
+    # not on the figure: with both levels, more curves hide the ones compared
     for level in sorted({k[0] for k in records}):
         for code, (label, style) in styles.items():
             pts = sorted((a, lift(r)) for (lv, a, c), r in records.items() if lv == level and c == code

@@ -191,6 +191,16 @@ def simple_settings(config: Config) -> SimpleSettings:
                           stop_monitors=(f"fy:{BLADE}", "c_max"))
 
 
+def turbulence_model(config: Config) -> SST | None:
+    """The ``solver:`` section's turbulence model: :class:`solver.SST` with the section's SST keys, or None
+    (``model: laminar``)."""
+    s = config.solver
+    if s.model != "sst":
+        return None
+    return SST(wall_treatment=s.wall_treatment, omega_production=s.omega_production,
+               omega_wall_flux=s.omega_wall_flux, velocity_gradient=s.sst_velocity_gradient)
+
+
 def solve_flow(config: Config, fvmesh: FVMesh, *, log: Log | None = None, every: int = 0,
                warm_start: FlowResults | None = None) -> FlowResults:
     """Solve stage: the steady flow on ``fvmesh`` (model, settings and initial field from ``config``;
@@ -199,9 +209,8 @@ def solve_flow(config: Config, fvmesh: FVMesh, *, log: Log | None = None, every:
     returned (its status says so)."""
     s = config.solver
     say = log or (lambda _line: None)
-    turbulence = {"turbulence": SST(wall_treatment=s.wall_treatment, omega_production=s.omega_production,
-                                    omega_wall_flux=s.omega_wall_flux,
-                                    velocity_gradient=s.sst_velocity_gradient)} if s.model == "sst" else {}
+    model = turbulence_model(config)
+    turbulence = {"turbulence": model} if model is not None else {}
     try:
         problem = Problem.create(fvmesh, boundary_conditions(config), Fluid(config.flow.density,
                                  config.flow.viscosity), **turbulence)

@@ -195,10 +195,21 @@ def test_solver_section_sets_the_sst_options(monkeypatch):
             raise ValueError("captured")
 
     monkeypatch.setattr(pipeline, "Problem", Capture)
-    config = load_config(BENCH, ["solver.omega_production=limited", "solver.omega_wall_flux=two_point",
+    config = load_config(BENCH, ["solver.omega_production=unlimited", "solver.omega_wall_flux=two_point",
                                  "solver.wall_treatment=low_re", "solver.sst_velocity_gradient=green_gauss"])
     with pytest.raises(StageFailure, match="captured"):
         pipeline.solve_flow(config, fvmesh=None)
     sst = seen["sst"]
     assert (sst.omega_production, sst.omega_wall_flux, sst.wall_treatment, sst.velocity_gradient) == (
-        "limited", "two_point", "low_re", "green_gauss")
+        "unlimited", "two_point", "low_re", "green_gauss")
+
+
+def test_the_blades_turbulence_model_is_sst_with_openfoams_omega_production():
+    """The blade evaluations' SST: OpenFOAM's limited omega production (session 14; the SST's own default is
+    unlimited), the bounded Green–Gauss SST gradient, the automatic wall treatment; none when laminar."""
+    from optimizer import pipeline
+    from solver import SST
+
+    assert pipeline.turbulence_model(load_config(BENCH)) == SST(omega_production="limited")
+    assert SST().omega_production == "unlimited"
+    assert pipeline.turbulence_model(load_config(BENCH, ["solver.model=laminar"])) is None

@@ -207,13 +207,13 @@ def test_the_limited_start_up_counts_over_the_run_and_the_stop_test_waits_for_it
     assert chunk_limiter(plain, 700) is plain and limiter_off_since(plain, 600) == 600
 
 
-def test_the_near_stall_variant_has_its_sst_terms_and_the_default_case_has_none():
+def test_the_near_stall_variant_adds_its_sst_terms_to_the_case_default():
     """The near-stall SST is SST-2003 (``low_re``) with OpenFOAM's limited omega production and the two-point
-    wall omega flux (docs/validation.md, "Tried as the default (session 4)"); the case's default SST is the plain
-    SST-2003."""
+    wall omega flux (docs/validation.md, "Tried as the default (session 4)"); the case's default SST is SST-2003
+    with the limited omega production alone (session 14)."""
     from solver.turbulence import SST
     from solver.validation.naca0012 import naca_turbulence
 
     t = naca_turbulence(near_stall=True)
     assert t == SST(wall_treatment="low_re", omega_production="limited", omega_wall_flux="two_point")
-    assert naca_turbulence() == SST(wall_treatment="low_re")
+    assert naca_turbulence() == SST(wall_treatment="low_re", omega_production="limited")
