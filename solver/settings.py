@@ -26,8 +26,8 @@ class SimpleSettings:
     """Settings of the steady pressure-based solver (every option has a default).
 
     The defaults are those of the blade evaluations (Re ~ 1e6, k-omega SST, first cell at y+ ~ 1), except
-    ``pressure_gradient``, ``face_velocity``, ``alpha_p`` and ``startup_alpha_p_iterations``, which the blade
-    evaluations set (:data:`optimizer.config.BLADE_SETTINGS`):
+    ``pressure_gradient``, ``face_velocity``, ``alpha_p``, ``startup_alpha_p_iterations`` and ``limiter_k``, which
+    the blade evaluations set (:data:`optimizer.config.BLADE_SETTINGS`):
 
     algorithm: ``"simplec"`` (default) or ``"simple"`` (:data:`solver.simple.ALGORITHMS`).
     alpha_u, alpha_p: momentum and pressure under-relaxation; ``alpha_p`` None means 1 (no pressure
@@ -74,7 +74,9 @@ class SimpleSettings:
         iterations over each sweep (docs/performance.md, "A ramped end of the start-up").
     convection: ``"linear_upwind"`` (second order, deferred correction) or ``"upwind"``
         (:data:`solver.assembly.CONVECTION_SCHEMES`).
-    limiter, limiter_k: gradient limiter for convection (:data:`solver.gradient.LIMITERS`).
+    limiter, limiter_k: gradient limiter for convection (:data:`solver.gradient.LIMITERS`). Venkatakrishnan's
+        ``eps² = (K h)³`` is dimensional (SI: h in m), so a K limits differently at another scale and speed;
+        the blade evaluations use K = 100 (docs/validation-blades.md, session 14).
     limiter_iterations: the limiter acts in the first ``limiter_iterations`` iterations only, the unlimited
         linear-upwind reconstruction (OpenFOAM's ``linearUpwind``) after them; None (default): throughout.
         From a potential or uniform start the unlimited scheme diverges within a few iterations (the slip

@@ -125,11 +125,12 @@ def test_solver_settings_are_the_solvers_own_with_the_blade_monitored():
 
 def test_solver_section_defaults_are_the_simple_settings_defaults():
     """The solver's defaults, except the blade evaluations' own (:data:`optimizer.config.BLADE_SETTINGS`: the
-    bounded Green–Gauss pressure gradient and alpha_p 0.7, session 12; the bounded face velocity, session 13)."""
+    bounded Green–Gauss pressure gradient and alpha_p 0.7, session 12; the bounded face velocity, session 13; the
+    convection limiter's K = 100, session 14)."""
     defaults = dataclasses.replace(SimpleSettings(), **BLADE_SETTINGS)
     assert SolverConfig().settings() == {k: getattr(defaults, k) for k in SETTING_KEYS}
     assert BLADE_SETTINGS == {"pressure_gradient": "green_gauss_bounded", "face_velocity": "bounded",
-                              "alpha_p": 0.7, "startup_alpha_p_iterations": 150}
+                              "alpha_p": 0.7, "startup_alpha_p_iterations": 150, "limiter_k": 100.0}
     fields = {f.name for f in dataclasses.fields(SimpleSettings)}
     # every field is a key of the section or is left out for a stated reason
     assert fields == set(SETTING_KEYS) | set(SETTINGS_NOT_CONFIGURED)
