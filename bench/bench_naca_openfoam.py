@@ -135,9 +135,13 @@ def wall_force_parts(mesh, wall: dict, alpha_deg: float) -> dict:
 
 
 # ---------------------------------------------------------------------------------------------- OpenFOAM
-def fv_schemes(u_gradient: str = "Gauss linear", gradient: str = "Gauss linear") -> str:
+def fv_schemes(u_gradient: str = "Gauss linear", gradient: str = "Gauss linear",
+               interpolation: str = "linear") -> str:
     """Linear-upwind U on the gradient ``u_gradient`` (``--u-gradient``), first-order upwind k and omega
-    (millfoil's SST default), ``gradient`` (``--gradient``: the ``gradSchemes`` default, i.e. grad(U) of the
+    (millfoil's SST default), ``interpolation`` (``--interpolation``: the ``interpolationSchemes`` default, i.e.
+    the face values of ``HbyA`` and ``rAU`` that make the face flux; ``skewCorrected linear`` is the counterpart of
+    millfoil's skewness-corrected face velocity), ``gradient`` (``--gradient``: the ``gradSchemes`` default, i.e.
+    grad(U) of the
     stresses and production, grad(p), grad(k), grad(omega)) elsewhere, corrected Laplacians. OpenFOAM's
     ``leastSquares`` gradient (millfoil's kind) made every run on this mesh diverge within 30 iterations
     (from a uniform or the potential start), so the gradients are Green-Gauss (docs/validation.md)."""
@@ -156,10 +160,10 @@ divSchemes
     div((nuEff*dev2(T(grad(U))))) Gauss linear;
 }
 laplacianSchemes { default Gauss linear corrected; }
-interpolationSchemes { default linear; }
+interpolationSchemes { default INTERPOLATION; }
 snGradSchemes { default corrected; }
 wallDist { method meshWave; correctWalls true; }
-""".replace("GRADIENT", u_gradient).replace("DEFAULT", gradient)
+""".replace("GRADIENT", u_gradient).replace("DEFAULT", gradient).replace("INTERPOLATION", interpolation)
 
 
 def fv_solution(alpha_u: float, alpha_turb: float) -> str:
@@ -217,7 +221,7 @@ def control_dict(alpha_deg: float, iterations: int) -> str:
 
 def write_openfoam_case(directory: Path, mesh, alpha_deg: float, iterations: int, reynolds: float = REYNOLDS,
                         alpha_u: float = 0.9, alpha_turb: float = 0.8, u_gradient: str = "Gauss linear",
-                        gradient: str = "Gauss linear") -> None:
+                        gradient: str = "Gauss linear", interpolation: str = "linear") -> None:
     """The whole simpleFoam case of the NACA 0012 at ``alpha_deg`` on ``mesh`` (conditions: module docstring)."""
     nu, k, omega = freestream_turbulence(reynolds)
     beta1 = SSTConstants().beta1
@@ -228,7 +232,7 @@ def write_openfoam_case(directory: Path, mesh, alpha_deg: float, iterations: int
     write_file(directory, "constant/turbulenceProperties", "dictionary",
                "simulationType RAS;\nRAS\n{\n    RASModel kOmegaSST;\n    turbulence on;\n    printCoeffs on;\n}\n")
     write_file(directory, "system/controlDict", "dictionary", control_dict(alpha_deg, iterations))
-    write_file(directory, "system/fvSchemes", "dictionary", fv_schemes(u_gradient, gradient))
+    write_file(directory, "system/fvSchemes", "dictionary", fv_schemes(u_gradient, gradient, interpolation))
     write_file(directory, "system/fvSolution", "dictionary", fv_solution(alpha_u, alpha_turb))
     fields = {
         "U": ("volVectorField", "[0 1 -1 0 0 0 0]", u, {
@@ -260,19 +264,20 @@ def check_mesh(directory: Path) -> dict:
 
 
 def run_openfoam(directory: Path, level: str, alpha_deg: float, iterations: int,
-                 u_gradient: str = "Gauss linear", alpha_u: float = 0.9, gradient: str = "Gauss linear") -> dict:
+                 u_gradient: str = "Gauss linear", alpha_u: float = 0.9, gradient: str = "Gauss linear",
+                 interpolation: str = "linear") -> dict:
     """Write, check and run one OpenFOAM case; the record of :func:`openfoam_record`."""
     cm = naca0012_cmesh(level, alpha_deg=alpha_deg)
     shutil.rmtree(directory, ignore_errors=True)
     write_openfoam_case(directory, cm.mesh, alpha_deg, iterations, alpha_u=alpha_u, u_gradient=u_gradient,
-                        gradient=gradient)
+                        gradient=gradient, interpolation=interpolation)
     mesh_check = check_mesh(directory)
     rc, wall = run_utility(directory, "simpleFoam")
     rec = openfoam_record(directory, cm.mesh)
     if "wall" in rec:
         rec.update(wall_force_parts(cm.mesh, rec["wall"], alpha_deg))
     rec.update(mesh_check=mesh_check["summary"], exit_status=rc, seconds=round(wall, 1), u_gradient=u_gradient,
-               alpha_u=alpha_u, gradient=gradient)
+               alpha_u=alpha_u, gradient=gradient, interpolation=interpolation)
     return rec
 
 
@@ -561,6 +566,8 @@ def main(argv=None) -> None:
                         "(e.g. 'cellLimited<Venkatakrishnan> Gauss linear 1')")
     parser.add_argument("--gradient", default="Gauss linear", help="OpenFOAM gradSchemes default: every other "
                         "gradient (e.g. 'pointCellsLeastSquares', 'Gauss pointLinear', 'cellMDLimited Gauss linear 1')")
+    parser.add_argument("--interpolation", default="linear", help="OpenFOAM interpolationSchemes default: the face "
+                        "values of HbyA and rAU in the flux (e.g. 'skewCorrected linear')")
     parser.add_argument("--of-code", default="openfoam", help="code name of the OpenFOAM records (experiments: "
                         "e.g. openfoam[gradient=leastSquares]; the report's table compares millfoil with 'openfoam')")
     parser.add_argument("--of-alpha-u", type=float, default=0.9, help="simpleFoam U relaxation (SIMPLEC)")
@@ -594,7 +601,8 @@ def main(argv=None) -> None:
                 if code == "openfoam":
                     rec = {"error": why} if why else run_openfoam(case / "openfoam", level, alpha,
                                                                       args.of_iterations, args.u_gradient,
-                                                                      args.of_alpha_u, args.gradient)
+                                                                      args.of_alpha_u, args.gradient,
+                                                                      args.interpolation)
                     code = args.of_code
                 else:
                     variant = dict(kv.split("=", 1) for kv in args.mf_variant)
