@@ -11,16 +11,20 @@ from optimizer.pipeline import evaluate  # noqa: E402
 @pytest.mark.slow
 @pytest.mark.parametrize("startup_iterations,status", [(0, "diverged"), (50, "converged")])
 def test_coarse_channel_blade_needs_the_gentle_start(startup_iterations, status):
-    """Random blade 4 of ``bench/bench_robustness.py`` in the campaigns' channel at coarse: from the free
-    stream at alpha_u 0.95 the leading-edge cells blow up at iteration 10; 50 iterations at 0.7 first and it
-    converges (F_Y -7 193 N/m; -7 146 at medium)."""
-    params = {"L": 0.1, "alpha": 24.72724458654757, "beta1": 8.179870404293172, "beta1bar": 29.954863950858122,
-              "u_s2": 0.2665537845233394, "d_s1": 0.007931127313857598, "d_s2": 0.011754531756695236,
-              "d_s3": 0.0474040272783459, "d_s4": 0.002, "d_p3": 0.033809094985744526, "d_p4": 0.002}
-    ev = evaluate(Config.from_mapping({"blade": {"mode": "design", "continuity": "C2", "parameters": params},
+    """Random blade 3 of ``bench/bench_robustness.py`` (seed 2013) in the campaigns' channel at coarse: from the
+    free stream at alpha_u 0.95 the velocity explodes at iteration 8; 50 iterations at 0.7 first and it converges
+    (470 iterations). Session 14's defaults (OpenFOAM's omega production, limiter K = 100) took blade 4, this test's
+    blade before, through without the start-up; blade 3 is the one of the 50 that still needs it
+    (/work/notes/s14/coarse_nostart.jsonl: the coarse-channel sweep with ``startup_iterations=0``)."""
+    params = {"L": 0.1, "alpha": 13.026401193492816, "beta1": -4.458539970563319, "beta1bar": 23.893982190206568,
+              "u_s2": 0.2409011347599074, "d_s1": 0.007899870594468091, "d_s2": 0.010126170400710045,
+              "d_s3": 0.024791527719602736, "d_s4": 0.002, "d_p1": 0.007382324129303904,
+              "d_p3": 0.04057611423750272, "d_p4": 0.002, "k2": 2.919575409892304}
+    ev = evaluate(Config.from_mapping({"blade": {"mode": "design", "continuity": "G2", "parameters": params},
                                        "mesh": {"level": "coarse", "half_height": 1.0},
                                        "solver": {"startup_iterations": startup_iterations}}))
     summary = ev.summary()
     assert summary["status"] == status
     if status == "converged":
-        assert summary["F_Y"] == pytest.approx(-7146.3, rel=0.03)     # the same blade at medium (oscillating)
+        # the same blade at medium (converged, -8 218 N/m): the coarse mesh's own lift is 5.8 % above it
+        assert summary["F_Y"] == pytest.approx(-8218.2, rel=0.07)
