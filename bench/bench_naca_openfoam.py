@@ -482,6 +482,9 @@ SESSION12 = "millfoil-s12"
 #: The code label of the records of session 13's default (bounded face velocity, unlimited omega production;
 #: relabelled when session 14 made OpenFOAM's limited omega production the case's default).
 SESSION13 = "millfoil-s13"
+#: The code label of OpenFOAM's runs with ``--interpolation "skewCorrected linear"`` (session 14): the face values of
+#: HbyA and rAU in its flux skewness-corrected, the counterpart of millfoil's reconstructed face velocity.
+OPENFOAM_SKEW = "openfoam[interpolation=skewCorrected linear]"
 
 
 def plot(records: dict, directory: Path = FIGURES) -> list[Path]:
@@ -496,6 +499,7 @@ def plot(records: dict, directory: Path = FIGURES) -> list[Path]:
     out = []
     fig, ax = plt.subplots(figsize=(11, 5))
     styles = {"openfoam": ("OpenFOAM kOmegaSST", "s--"),
+              OPENFOAM_SKEW: ("OpenFOAM kOmegaSST, skewCorrected linear face flux", "D:"),
               "millfoil": ("millfoil SST (default: limited ω production, bounded face velocity, session 14)", "o-"),
               SESSION13: ("millfoil SST, unlimited ω production (default of session 13)", "^-"),
               SESSION12: ("millfoil SST, corrected face velocity (default of session 12)", "v-.")}
@@ -512,7 +516,7 @@ def plot(records: dict, directory: Path = FIGURES) -> list[Path]:
     ref = load_clcd()
     ax.plot(list(ref), [v[0] for v in ref.values()], "r*", ms=10, label="TMR CFL3D SST (897×257)")
     ax.set(xlabel="α (deg)", ylabel="C_L", title="NACA 0012, Re 6·10⁶, same C-mesh, no point vortex", xlim=(-1, 21),
-           ylim=(-0.1, 1.7))
+           ylim=(-0.1, 1.9))
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))     # beside the curves, not over them
     fig.tight_layout()
