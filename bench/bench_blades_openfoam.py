@@ -106,13 +106,14 @@ def blade_configs(paper: list[str], indices: list[int], level: str, solver: dict
 
 
 def split_variant(items: list[str]) -> tuple[dict, dict]:
-    """``(solver: keys, SST fields)`` of the ``--mf-set`` items; an unknown key is an error."""
-    from optimizer.config import SETTING_KEYS
+    """``(solver: keys, SST fields)`` of the ``--mf-set`` items (a key of both, e.g. ``omega_production``, is
+    taken as the ``solver:`` key); an unknown key is an error."""
+    from optimizer.config import SolverConfig
     from solver.turbulence import SST
 
     values = overrides(items)
-    sst_keys = {f.name for f in dataclasses.fields(SST)} - {"wall_treatment"}
-    solver_keys = set(SETTING_KEYS) | {"model", "wall_treatment", "initial"}
+    solver_keys = set(SolverConfig.model_fields)
+    sst_keys = {f.name for f in dataclasses.fields(SST)} - solver_keys
     unknown = sorted(set(values) - sst_keys - solver_keys)
     if unknown:
         raise SystemExit(f"--mf-set: unknown keys {unknown} (solver: keys or SST fields)")
