@@ -117,7 +117,8 @@ def test_read_face_flux_maps_faces_and_signs(tmp_path):
 
 def test_naca_fv_schemes_gradient_options():
     """bench_naca_openfoam's fvSchemes: ``--u-gradient`` sets only the linear-upwind U gradient, ``--gradient``
-    the default of every other gradient; the defaults are the results table's (Gauss linear for both)."""
+    the default of every other gradient, ``--interpolation`` the face interpolation of the flux; the defaults are
+    the results table's (Gauss linear, linear)."""
     from bench_naca_openfoam import fv_schemes
 
     plain = fv_schemes()
@@ -125,6 +126,9 @@ def test_naca_fv_schemes_gradient_options():
     text = fv_schemes("cellLimited Gauss linear 1", "pointCellsLeastSquares")
     assert "default pointCellsLeastSquares;" in text and "gradU cellLimited Gauss linear 1;" in text
     assert "div(phi,U) bounded Gauss linearUpwind gradU;" in text
+    assert "interpolationSchemes { default linear; }" in plain       # the face flux of the results table
+    skew = fv_schemes(interpolation="skewCorrected linear")           # --interpolation (session 14)
+    assert "interpolationSchemes { default skewCorrected linear; }" in skew and "gradU Gauss linear;" in skew
 
 
 def test_wall_force_parts_add_up_to_the_wall_force():
