@@ -14,7 +14,8 @@ conditions (docs/validation.md, "Matching the conditions"):
 * SST-2003 (millfoil) and ``kOmegaSST`` (OpenFOAM v1912, default coefficients = SST-2003 constants);
 * linear-upwind U (limited least-squares gradient), first-order upwind k and ω;
 * millfoil runs its validation settings through :func:`solver.validation.naca0012.run_naca0012`; OpenFOAM
-  runs SIMPLEC (``consistent``) with GAMG.
+  runs SIMPLEC (``consistent``) with GAMG; the fine level needs ``--of-non-orthogonal 2`` (pressure
+  non-orthogonal correctors: the same converged solution, a path that survives the mesh's 53° cells).
 
 Per angle and code it records C_L, C_D (pressure + viscous, along and normal to U∞), C_max = max |u|/U∞ over
 the cells, the suction-side separation point (x/c of the first wall face from the leading edge whose
@@ -166,8 +167,12 @@ wallDist { method meshWave; correctWalls true; }
 """.replace("GRADIENT", u_gradient).replace("DEFAULT", gradient).replace("INTERPOLATION", interpolation)
 
 
-def fv_solution(alpha_u: float, alpha_turb: float) -> str:
-    """SIMPLEC (``consistent``), GAMG pressure; the residual controls stop a converged run."""
+def fv_solution(alpha_u: float, alpha_turb: float, non_orthogonal: int = 0) -> str:
+    """SIMPLEC (``consistent``), GAMG pressure; the residual controls stop a converged run.
+
+    ``non_orthogonal``: pressure non-orthogonal correctors per iteration. They change the iteration path, not the
+    converged solution; the fine C-mesh (non-orthogonality up to 53° where its lines turn, 0.1–0.3 c from the
+    wall) needs 2: with 0 simpleFoam diverges there within ~150 iterations from every start (docs/validation.md)."""
     return f"""solvers
 {{
     p {{ solver GAMG; smoother GaussSeidel; tolerance 1e-9; relTol 0.01; }}
@@ -177,7 +182,7 @@ def fv_solution(alpha_u: float, alpha_turb: float) -> str:
 potentialFlow {{ nNonOrthogonalCorrectors 3; }}
 SIMPLE
 {{
-    nNonOrthogonalCorrectors 0;
+    nNonOrthogonalCorrectors {non_orthogonal};
     consistent yes;
     residualControl {{ p 1e-7; U 1e-8; "(k|omega)" 1e-8; }}
 }}
@@ -221,7 +226,8 @@ def control_dict(alpha_deg: float, iterations: int) -> str:
 
 def write_openfoam_case(directory: Path, mesh, alpha_deg: float, iterations: int, reynolds: float = REYNOLDS,
                         alpha_u: float = 0.9, alpha_turb: float = 0.8, u_gradient: str = "Gauss linear",
-                        gradient: str = "Gauss linear", interpolation: str = "linear") -> None:
+                        gradient: str = "Gauss linear", interpolation: str = "linear",
+                        non_orthogonal: int = 0) -> None:
     """The whole simpleFoam case of the NACA 0012 at ``alpha_deg`` on ``mesh`` (conditions: module docstring)."""
     nu, k, omega = freestream_turbulence(reynolds)
     beta1 = SSTConstants().beta1
@@ -233,7 +239,7 @@ def write_openfoam_case(directory: Path, mesh, alpha_deg: float, iterations: int
                "simulationType RAS;\nRAS\n{\n    RASModel kOmegaSST;\n    turbulence on;\n    printCoeffs on;\n}\n")
     write_file(directory, "system/controlDict", "dictionary", control_dict(alpha_deg, iterations))
     write_file(directory, "system/fvSchemes", "dictionary", fv_schemes(u_gradient, gradient, interpolation))
-    write_file(directory, "system/fvSolution", "dictionary", fv_solution(alpha_u, alpha_turb))
+    write_file(directory, "system/fvSolution", "dictionary", fv_solution(alpha_u, alpha_turb, non_orthogonal))
     fields = {
         "U": ("volVectorField", "[0 1 -1 0 0 0 0]", u, {
             "farfield_in": f"type fixedValue; value uniform {u};", "farfield_out": "type zeroGradient;",
@@ -265,19 +271,19 @@ def check_mesh(directory: Path) -> dict:
 
 def run_openfoam(directory: Path, level: str, alpha_deg: float, iterations: int,
                  u_gradient: str = "Gauss linear", alpha_u: float = 0.9, gradient: str = "Gauss linear",
-                 interpolation: str = "linear") -> dict:
+                 interpolation: str = "linear", non_orthogonal: int = 0) -> dict:
     """Write, check and run one OpenFOAM case; the record of :func:`openfoam_record`."""
     cm = naca0012_cmesh(level, alpha_deg=alpha_deg)
     shutil.rmtree(directory, ignore_errors=True)
     write_openfoam_case(directory, cm.mesh, alpha_deg, iterations, alpha_u=alpha_u, u_gradient=u_gradient,
-                        gradient=gradient, interpolation=interpolation)
+                        gradient=gradient, interpolation=interpolation, non_orthogonal=non_orthogonal)
     mesh_check = check_mesh(directory)
     rc, wall = run_utility(directory, "simpleFoam")
     rec = openfoam_record(directory, cm.mesh)
     if "wall" in rec:
         rec.update(wall_force_parts(cm.mesh, rec["wall"], alpha_deg))
     rec.update(mesh_check=mesh_check["summary"], exit_status=rc, seconds=round(wall, 1), u_gradient=u_gradient,
-               alpha_u=alpha_u, gradient=gradient, interpolation=interpolation)
+               alpha_u=alpha_u, gradient=gradient, interpolation=interpolation, non_orthogonal=non_orthogonal)
     return rec
 
 
@@ -575,6 +581,8 @@ def main(argv=None) -> None:
     parser.add_argument("--of-code", default="openfoam", help="code name of the OpenFOAM records (experiments: "
                         "e.g. openfoam[gradient=leastSquares]; the report's table compares millfoil with 'openfoam')")
     parser.add_argument("--of-alpha-u", type=float, default=0.9, help="simpleFoam U relaxation (SIMPLEC)")
+    parser.add_argument("--of-non-orthogonal", type=int, default=0, metavar="N",
+                        help="simpleFoam pressure non-orthogonal correctors (the fine mesh needs 2)")
     parser.add_argument("--mf-iterations", type=int, default=6000, help="millfoil iteration cap")
     parser.add_argument("--mf-variant", nargs="*", default=[], metavar="KEY=VALUE",
                         help="millfoil experiment: limiter=none, face_interpolation=linear, ... (run_millfoil)")
@@ -606,7 +614,7 @@ def main(argv=None) -> None:
                     rec = {"error": why} if why else run_openfoam(case / "openfoam", level, alpha,
                                                                       args.of_iterations, args.u_gradient,
                                                                       args.of_alpha_u, args.gradient,
-                                                                      args.interpolation)
+                                                                      args.interpolation, args.of_non_orthogonal)
                     code = args.of_code
                 else:
                     variant = dict(kv.split("=", 1) for kv in args.mf_variant)

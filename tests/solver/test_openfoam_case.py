@@ -131,6 +131,17 @@ def test_naca_fv_schemes_gradient_options():
     assert "interpolationSchemes { default skewCorrected linear; }" in skew and "gradU Gauss linear;" in skew
 
 
+
+def test_naca_fv_solution_non_orthogonal_correctors():
+    """``--of-non-orthogonal N`` sets simpleFoam's pressure non-orthogonal correctors (the fine mesh needs 2);
+    the default is the results table's 0, and SIMPLEC stays on."""
+    from bench_naca_openfoam import fv_solution
+
+    assert "nNonOrthogonalCorrectors 0;" in fv_solution(0.9, 0.8)
+    fine = fv_solution(0.9, 0.8, non_orthogonal=2)
+    assert "nNonOrthogonalCorrectors 2;" in fine and "consistent yes;" in fine
+    assert "U 0.9;" in fine and '"(k|omega)" 0.8;' in fine
+
 def test_wall_force_parts_add_up_to_the_wall_force():
     """The pressure and viscous parts of C_D and C_L from a wall record: a uniform C_p on a closed wall gives
     no force; a uniform c_f gives a viscous drag of about 2 c_f (both surfaces, chord 1) at alpha = 0."""
