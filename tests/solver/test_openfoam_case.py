@@ -153,3 +153,33 @@ def test_wall_force_parts_add_up_to_the_wall_force():
     assert abs(parts["c_d_pressure"]) < 1e-12 and abs(parts["c_l_pressure"]) < 1e-12
     parts = wall_force_parts(mesh, {"cp": np.zeros(nw), "cf": np.full(nw, 1e-3)}, 0.0)
     assert abs(parts["c_d_viscous"] - 2e-3) < 1e-4 and abs(parts["c_l_viscous"]) < 1e-6
+
+
+def test_naca_drag_study_richardson_recovers_order_and_limit():
+    """bench/naca_drag_study.py: three levels of f = f0 + C h^p on the validation meshes' cell counts (unequal
+    refinement ratios) give back p and f0; values that no order explains (not monotone) give None."""
+    from naca_drag_study import richardson
+
+    cells = [10800, 21728, 41184]
+    h = 1 / np.sqrt(np.asarray(cells, float))
+    for p, f0, c in ((1.35, 0.0127, 3.0), (2.0, 1.06, -40.0)):
+        order, limit = richardson(f0 + c * h ** p, cells)
+        assert abs(order - p) < 1e-6 and abs(limit - f0) < 1e-9 * max(1.0, abs(f0))
+    assert richardson([1.0, 2.0, 1.5], cells) == (None, None)
+
+
+def test_naca_drag_study_total_pressure_loss_flux():
+    """The free stream loses no total pressure; a uniform deficit δ in a uniform stream gives a loss flux of δ
+    times the line's length within the near field (0.2 c), positive downstream on both surfaces."""
+    from naca_drag_study import NEAR_FIELD, loss_flux, total_pressure_deficit
+
+    cm = naca0012_cmesh(SPEC, alpha_deg=0.0)
+    n = cm.mesh.n_cells
+    free = {"u": np.tile([1.0, 0.0], (n, 1)), "p": np.zeros(n), "k": np.zeros(n), "nut": np.zeros(n)}
+    assert np.allclose(total_pressure_deficit(free), 0.0)
+    assert loss_flux(cm, free, 0.5, "upper") == 0.0
+    delta = 0.02
+    lossy = dict(free, p=np.full(n, -0.5 * delta))                 # (p0∞ − p0)/q∞ = δ everywhere
+    for side in ("upper", "lower"):
+        flux = loss_flux(cm, lossy, 0.5, side)
+        assert 0.6 * delta * NEAR_FIELD < flux < 1.2 * delta * NEAR_FIELD
