@@ -566,6 +566,17 @@ def _plot_wall(records: dict, level: str, a: float, styles: dict, directory: Pat
 
 
 # --------------------------------------------------------------------------------------------------- CLI
+def non_negative_int(text: str) -> int:
+    """An argparse type: an integer >= 0 (``--of-non-orthogonal``)."""
+    try:
+        value = int(text)
+    except ValueError:
+        value = -1
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"needs an integer >= 0, got {text!r}")
+    return value
+
+
 def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--levels", nargs="+", default=["coarse"])
@@ -581,7 +592,7 @@ def main(argv=None) -> None:
     parser.add_argument("--of-code", default="openfoam", help="code name of the OpenFOAM records (experiments: "
                         "e.g. openfoam[gradient=leastSquares]; the report's table compares millfoil with 'openfoam')")
     parser.add_argument("--of-alpha-u", type=float, default=0.9, help="simpleFoam U relaxation (SIMPLEC)")
-    parser.add_argument("--of-non-orthogonal", type=int, default=0, metavar="N",
+    parser.add_argument("--of-non-orthogonal", type=non_negative_int, default=0, metavar="N",
                         help="simpleFoam pressure non-orthogonal correctors (the fine mesh needs 2)")
     parser.add_argument("--mf-iterations", type=int, default=6000, help="millfoil iteration cap")
     parser.add_argument("--mf-variant", nargs="*", default=[], metavar="KEY=VALUE",

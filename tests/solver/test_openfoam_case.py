@@ -183,3 +183,14 @@ def test_naca_drag_study_total_pressure_loss_flux():
     for side in ("upper", "lower"):
         flux = loss_flux(cm, lossy, 0.5, side)
         assert 0.6 * delta * NEAR_FIELD < flux < 1.2 * delta * NEAR_FIELD
+
+
+def test_naca_non_orthogonal_option_refuses_negative_counts():
+    """``--of-non-orthogonal`` takes an integer >= 0 and names what it got otherwise (argparse exit 2)."""
+    import pytest
+    from bench_naca_openfoam import main
+
+    for bad in ("-1", "two"):
+        with pytest.raises(SystemExit) as exc:
+            main(["--of-non-orthogonal", bad, "--codes", "openfoam", "--levels", "coarse"])
+        assert exc.value.code == 2
