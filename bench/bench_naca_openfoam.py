@@ -606,11 +606,14 @@ def main(argv=None) -> None:
                         "the record's iterations_this_run says how far it went), delete it to start afresh")
     parser.add_argument("--out", type=Path, default=None, help="JSON lines file (appended)")
     parser.add_argument("--report", nargs="+", type=Path, default=None, help="JSONL files: print table, plot")
+    parser.add_argument("--report-codes", nargs="+", default=None, metavar="CODE",
+                        help="codes of the --report table (default: every code in the files; the figures take theirs)")
     parser.add_argument("--no-install", action="store_true")
     args = parser.parse_args(argv)
     if args.report:
         records = load_records(args.report)
-        print(report(records))
+        codes = set(args.report_codes or {k[2] for k in records})
+        print(report({k: r for k, r in records.items() if k[2] in codes}))
         for path in plot(records):
             print(f"wrote {path.relative_to(ROOT)}")
         return
