@@ -29,7 +29,7 @@ ROOT = Path(__file__).parents[1]
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "bench"))
 
-from bench_naca_openfoam import load_records  # noqa: E402
+from bench_naca_openfoam import lift, load_records, wall_force_parts  # noqa: E402
 from openfoam_case import latest_time, read_field  # noqa: E402
 
 from solver.validation.meshes.naca_mesh import CMesh, naca0012_cmesh  # noqa: E402
@@ -108,8 +108,17 @@ def richardson(values, cells) -> tuple[float | None, float | None]:
     return p, f3 + (f3 - f2) / (r32 ** p - 1)
 
 
+def with_force_parts(record: dict, level: str, alpha: float) -> dict:
+    """``record`` with C_D's pressure and viscous parts, from its wall C_p and c_f where it lacks them (the
+    OpenFOAM records from before session 7)."""
+    if "c_d_pressure" in record:
+        return record
+    return record | wall_force_parts(naca0012_cmesh(level, alpha_deg=alpha).mesh, record["wall"], alpha)
+
+
 def convergence_table(records: dict, alpha: float) -> str:
-    """Markdown: each code's C_L, C_D, C_D,p, C_D,v on the three levels, the observed order and the extrapolation."""
+    """Markdown: each code's C_L (the window mean of an oscillating run), C_D, C_D,p, C_D,v on the three levels, the
+    observed order and the extrapolation."""
     rows = ["| code | quantity | coarse | medium | fine | observed order | extrapolated |", "| --- " * 7 + "|"]
     cells = [naca0012_cmesh(level).mesh.n_cells for level in LEVELS]
     for code in CODES:
@@ -117,8 +126,9 @@ def convergence_table(records: dict, alpha: float) -> str:
         if any(r is None or "error" in r for r in recs):
             rows.append(f"| {code} | (a level is missing) | | | | | |")
             continue
+        recs = [with_force_parts(r, level, alpha) for r, level in zip(recs, LEVELS, strict=True)]
         for key in ("c_l", "c_d", "c_d_pressure", "c_d_viscous"):
-            vals = [r[key] for r in recs]
+            vals = [lift(r) if key == "c_l" else r[key] for r in recs]      # C_L: window mean if oscillating
             p, ext = richardson(vals, cells)
             rows.append(f"| {code} | {key} | " + " | ".join(f"{v:.5f}" for v in vals)
                         + f" | {'—' if p is None else f'{p:.2f}'} | {'—' if ext is None else f'{ext:.5f}'} |")
