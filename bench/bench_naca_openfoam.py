@@ -224,6 +224,19 @@ def control_dict(alpha_deg: float, iterations: int) -> str:
 """
 
 
+def write_controls(directory: Path, alpha_deg: float, iterations: int, alpha_u: float = 0.9, alpha_turb: float = 0.8,
+                   u_gradient: str = "Gauss linear", gradient: str = "Gauss linear", interpolation: str = "linear",
+                   non_orthogonal: int = 0, resume: bool = False) -> None:
+    """``system/``: controlDict, fvSchemes, fvSolution. ``resume``: start from the case's latest written time and
+    stop at iteration ``iterations`` counted from 0 (``--of-resume``)."""
+    control = control_dict(alpha_deg, iterations)
+    if resume:
+        control = control.replace("startFrom startTime;", "startFrom latestTime;")
+    write_file(directory, "system/controlDict", "dictionary", control)
+    write_file(directory, "system/fvSchemes", "dictionary", fv_schemes(u_gradient, gradient, interpolation))
+    write_file(directory, "system/fvSolution", "dictionary", fv_solution(alpha_u, alpha_turb, non_orthogonal))
+
+
 def write_openfoam_case(directory: Path, mesh, alpha_deg: float, iterations: int, reynolds: float = REYNOLDS,
                         alpha_u: float = 0.9, alpha_turb: float = 0.8, u_gradient: str = "Gauss linear",
                         gradient: str = "Gauss linear", interpolation: str = "linear",
@@ -237,9 +250,8 @@ def write_openfoam_case(directory: Path, mesh, alpha_deg: float, iterations: int
     write_file(directory, "constant/transportProperties", "dictionary", f"transportModel Newtonian;\nnu {nu:.10g};\n")
     write_file(directory, "constant/turbulenceProperties", "dictionary",
                "simulationType RAS;\nRAS\n{\n    RASModel kOmegaSST;\n    turbulence on;\n    printCoeffs on;\n}\n")
-    write_file(directory, "system/controlDict", "dictionary", control_dict(alpha_deg, iterations))
-    write_file(directory, "system/fvSchemes", "dictionary", fv_schemes(u_gradient, gradient, interpolation))
-    write_file(directory, "system/fvSolution", "dictionary", fv_solution(alpha_u, alpha_turb, non_orthogonal))
+    write_controls(directory, alpha_deg, iterations, alpha_u, alpha_turb, u_gradient, gradient, interpolation,
+                   non_orthogonal)
     fields = {
         "U": ("volVectorField", "[0 1 -1 0 0 0 0]", u, {
             "farfield_in": f"type fixedValue; value uniform {u};", "farfield_out": "type zeroGradient;",
@@ -271,32 +283,43 @@ def check_mesh(directory: Path) -> dict:
 
 def run_openfoam(directory: Path, level: str, alpha_deg: float, iterations: int,
                  u_gradient: str = "Gauss linear", alpha_u: float = 0.9, gradient: str = "Gauss linear",
-                 interpolation: str = "linear", non_orthogonal: int = 0) -> dict:
-    """Write, check and run one OpenFOAM case; the record of :func:`openfoam_record`."""
+                 interpolation: str = "linear", non_orthogonal: int = 0, resume: bool = False) -> dict:
+    """Write, check and run one OpenFOAM case; the record of :func:`openfoam_record`.
+
+    ``resume`` (``--of-resume``): where ``directory`` holds a run with a written time, continue it from there up to
+    ``iterations`` in all, with the settings given now (the earlier log is kept as ``log.simpleFoam.<time>``);
+    otherwise start afresh."""
     cm = naca0012_cmesh(level, alpha_deg=alpha_deg)
-    shutil.rmtree(directory, ignore_errors=True)
-    write_openfoam_case(directory, cm.mesh, alpha_deg, iterations, alpha_u=alpha_u, u_gradient=u_gradient,
-                        gradient=gradient, interpolation=interpolation, non_orthogonal=non_orthogonal)
+    start = latest_time(directory) if resume and directory.is_dir() else None
+    if start is None:
+        shutil.rmtree(directory, ignore_errors=True)
+        write_openfoam_case(directory, cm.mesh, alpha_deg, iterations, alpha_u=alpha_u, u_gradient=u_gradient,
+                            gradient=gradient, interpolation=interpolation, non_orthogonal=non_orthogonal)
+    else:
+        write_controls(directory, alpha_deg, iterations, alpha_u, 0.8, u_gradient, gradient, interpolation,
+                       non_orthogonal, resume=True)
+        if (directory / "log.simpleFoam").exists():
+            (directory / "log.simpleFoam").rename(directory / f"log.simpleFoam.{start.name}")
     mesh_check = check_mesh(directory)
     rc, wall = run_utility(directory, "simpleFoam")
     rec = openfoam_record(directory, cm.mesh)
     if "wall" in rec:
         rec.update(wall_force_parts(cm.mesh, rec["wall"], alpha_deg))
     rec.update(mesh_check=mesh_check["summary"], exit_status=rc, seconds=round(wall, 1), u_gradient=u_gradient,
-               alpha_u=alpha_u, gradient=gradient, interpolation=interpolation, non_orthogonal=non_orthogonal)
+               alpha_u=alpha_u, gradient=gradient, interpolation=interpolation, non_orthogonal=non_orthogonal,
+               **({"resumed_from": int(float(start.name))} if start is not None else {}))
     return rec
 
 
 def openfoam_record(directory: Path, mesh) -> dict:
-    """Coefficients, C_max, wall C_p / c_f and convergence data of a finished simpleFoam case."""
+    """Coefficients, C_max, wall C_p / c_f and convergence data of a finished simpleFoam case (over every
+    stretch of a resumed run: its coefficient files joined, the CPU seconds of its logs added)."""
     log = (directory / "log.simpleFoam").read_text()
-    coef_file = sorted((directory / "postProcessing" / "forceCoeffs").glob("*/coefficient.dat"))
     last = latest_time(directory)
-    if not coef_file or last is None:
+    coefficients = read_coefficients(directory)
+    if coefficients is None or last is None:
         return {"error": f"no coefficients or no written time (see {directory / 'log.simpleFoam'})"}
-    header = [ln for ln in coef_file[0].read_text().splitlines() if ln.startswith("#")][-1][1:].split()
-    data = read_dat(coef_file[0])
-    cl, cd = data[:, header.index("Cl")], data[:, header.index("Cd")]
+    cl, cd = coefficients["Cl"], coefficients["Cd"]
     u, _ = read_field(last / "U", mesh.n_cells)
     p, _ = read_field(last / "p", mesh.n_cells)
     _, shear = read_field(last / "wallShearStress", mesh.n_cells)
@@ -304,12 +327,30 @@ def openfoam_record(directory: Path, mesh) -> dict:
     # OpenFOAM's wallShearStress is the stress of the wall on the fluid (-n·R_eff): the fluid's on the wall is -it;
     # the wall pressure is the wall cell's (zeroGradient), as in OpenFOAM's own forces
     rec = {"c_l": float(cl[-1]), "c_d": float(cd[-1]), "c_max": float(np.linalg.norm(u[:, :2], axis=1).max()),
-           "iterations": int(data[-1, 0]), "converged": "SIMPLE solution converged" in log,
-           "cpu_seconds": float(execution_times(log)[-1]) if execution_times(log).size else None}
+           "iterations": int(coefficients["Time"][-1]), "converged": "SIMPLE solution converged" in log,
+           "cpu_seconds": cpu_seconds(directory)}
     rec["status"] = "converged" if rec["converged"] else "iteration cap"
     rec.update(window_stats(cl, 1))
     rec["wall"] = wall_record(mesh, p[mesh.owner[wall]], -shear["wall"][:, :2])
     return rec
+
+
+def read_coefficients(directory: Path) -> dict[str, np.ndarray] | None:
+    """``forceCoeffs`` columns by name (``Time``, ``Cl``, ``Cd``, ...) over every start of the case: the
+    ``postProcessing/forceCoeffs/<start time>/coefficient.dat`` files joined in time order; None when there is none."""
+    files = sorted((directory / "postProcessing" / "forceCoeffs").glob("*/coefficient.dat"),
+                   key=lambda f: float(f.parent.name))
+    if not files:
+        return None
+    header = [ln for ln in files[0].read_text().splitlines() if ln.startswith("#")][-1][1:].split()
+    data = np.vstack([read_dat(f) for f in files])
+    return {name: data[:, i] for i, name in enumerate(header)}
+
+
+def cpu_seconds(directory: Path) -> float | None:
+    """CPU seconds of all simpleFoam logs of the case (a resumed run has one per stretch)."""
+    ends = [execution_times(f.read_text()) for f in directory.glob("log.simpleFoam*")]
+    return float(sum(e[-1] for e in ends if e.size)) if any(e.size for e in ends) else None
 
 
 # ---------------------------------------------------------------------------------------------- millfoil
@@ -594,6 +635,9 @@ def main(argv=None) -> None:
     parser.add_argument("--of-alpha-u", type=float, default=0.9, help="simpleFoam U relaxation (SIMPLEC)")
     parser.add_argument("--of-non-orthogonal", type=non_negative_int, default=0, metavar="N",
                         help="simpleFoam pressure non-orthogonal correctors (the fine mesh needs 2)")
+    parser.add_argument("--of-resume", action="store_true",
+                        help="continue an existing OpenFOAM case under --work from its latest written time up to "
+                             "--of-iterations in all (a run that was still moving at its cap)")
     parser.add_argument("--mf-iterations", type=int, default=6000, help="millfoil iteration cap")
     parser.add_argument("--mf-variant", nargs="*", default=[], metavar="KEY=VALUE",
                         help="millfoil experiment: limiter=none, face_interpolation=linear, ... (run_millfoil)")
@@ -628,7 +672,8 @@ def main(argv=None) -> None:
                     rec = {"error": why} if why else run_openfoam(case / "openfoam", level, alpha,
                                                                       args.of_iterations, args.u_gradient,
                                                                       args.of_alpha_u, args.gradient,
-                                                                      args.interpolation, args.of_non_orthogonal)
+                                                                      args.interpolation, args.of_non_orthogonal,
+                                                                      args.of_resume)
                     code = args.of_code
                 else:
                     variant = dict(kv.split("=", 1) for kv in args.mf_variant)

@@ -194,3 +194,26 @@ def test_naca_non_orthogonal_option_refuses_negative_counts():
         with pytest.raises(SystemExit) as exc:
             main(["--of-non-orthogonal", bad, "--codes", "openfoam", "--levels", "coarse"])
         assert exc.value.code == 2
+
+
+def test_naca_resumed_case_joins_its_coefficients_and_cpu(tmp_path):
+    """``--of-resume``: the controlDict starts from the latest time; the record reads the forceCoeffs files of every
+    start in time order (10000 after 4000, not before it) and adds the CPU seconds of every simpleFoam log."""
+    from bench_naca_openfoam import cpu_seconds, read_coefficients, write_controls
+
+    write_controls(tmp_path, 10.0, 12000, resume=True)
+    control = (tmp_path / "system/controlDict").read_text()
+    assert "startFrom latestTime;" in control and "endTime 12000;" in control
+    write_controls(tmp_path, 10.0, 4000)
+    assert "startFrom startTime;" in (tmp_path / "system/controlDict").read_text()
+    header = "# Force coefficients\n#\n# Time\tCd\tCs\tCl\n"
+    for start, rows in (("0", [(1, 0.5, 0, 1.0), (4000, 0.02, 0, 1.5)]), ("10000", [(10001, 0.019, 0, 1.58)]),
+                        ("4000", [(4001, 0.0201, 0, 1.51), (10000, 0.0195, 0, 1.57)])):
+        body = "".join("\t".join(str(v) for v in r) + "\n" for r in rows)
+        (tmp_path / "postProcessing/forceCoeffs" / start).mkdir(parents=True)
+        (tmp_path / "postProcessing/forceCoeffs" / start / "coefficient.dat").write_text(header + body)
+    c = read_coefficients(tmp_path)
+    assert c["Time"].tolist() == [1, 4000, 4001, 10000, 10001] and c["Cl"][-1] == 1.58 and c["Cd"][1] == 0.02
+    (tmp_path / "log.simpleFoam.4000").write_text("ExecutionTime = 100.5 s  ClockTime = 101 s\n")
+    (tmp_path / "log.simpleFoam").write_text("ExecutionTime = 3 s\nExecutionTime = 20.25 s  ClockTime = 21 s\n")
+    assert cpu_seconds(tmp_path) == 120.75
