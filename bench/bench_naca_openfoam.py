@@ -26,6 +26,9 @@ c_f < 0), iterations, seconds, the spread of C_L over the last 200 iterations an
     OMP_NUM_THREADS=1 python bench/bench_naca_openfoam.py --codes millfoil --alphas 0 10 --out naca.jsonl
     python bench/bench_naca_openfoam.py --report naca.jsonl        # table + docs/figures/validation/*.png
 
+``--of-resume`` continues an OpenFOAM case of ``--work`` from its latest written time up to ``--of-iterations`` in
+all (a run still moving at its cap); the record joins the stretches.
+
 Restart test (docs/validation.md, "Findings (session 3)"): ``--mf-start openfoam`` starts millfoil from
 OpenFOAM's converged fields of the same level and angle (the case must exist under ``--work``); the record's
 code is then ``millfoil...@openfoam``. A converged millfoil solution that differs from OpenFOAM's is then a
