@@ -85,7 +85,8 @@ def loss_flux(cm: CMesh, f: dict[str, np.ndarray], x_station: float, side: str) 
         un = np.einsum("jk,jk->j", u[col], normal)
         dist = np.linalg.norm(centre[col] - wall_xy[col], axis=1)
         keep = (nut[col] < INVISCID_NUT) & (dist < NEAR_FIELD)
-        flux += 0.5 * np.sum(deficit[col][keep] * 0.5 * un[keep]) / 0.5   # (p0∞ − p0) u·n Δl / q∞
+        # Σ (p0∞ − p0) u·n Δl / (q∞ U∞ c) with U∞ = c = 1: q∞ cancels against the deficit's; mean of the columns
+        flux += 0.5 * np.sum(deficit[col][keep] * un[keep])
     downstream = np.sign(np.sum(np.einsum("jk,jk->j", u[i], normal)))
     return float(downstream * flux)
 
