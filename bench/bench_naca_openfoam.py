@@ -299,8 +299,8 @@ def run_openfoam(directory: Path, level: str, alpha_deg: float, iterations: int,
         write_openfoam_case(directory, cm.mesh, alpha_deg, iterations, alpha_u=alpha_u, u_gradient=u_gradient,
                             gradient=gradient, interpolation=interpolation, non_orthogonal=non_orthogonal)
     else:
-        write_controls(directory, alpha_deg, iterations, alpha_u, 0.8, u_gradient, gradient, interpolation,
-                       non_orthogonal, resume=True)
+        write_controls(directory, alpha_deg, iterations, alpha_u=alpha_u, u_gradient=u_gradient, gradient=gradient,
+                       interpolation=interpolation, non_orthogonal=non_orthogonal, resume=True)
         if (directory / "log.simpleFoam").exists():
             (directory / "log.simpleFoam").rename(directory / f"log.simpleFoam.{start.name}")
     mesh_check = check_mesh(directory)
