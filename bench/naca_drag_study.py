@@ -69,25 +69,22 @@ def loss_flux(cm: CMesh, f: dict[str, np.ndarray], x_station: float, side: str) 
     """Drag coefficient of the total-pressure flux through the wall-normal node line nearest ``x_station`` on
     ``side`` (``"upper"``/``"lower"``), over the cells outside the boundary layer within :data:`NEAR_FIELD` of the
     wall: the mean of the two cell columns either side of the line, signed positive downstream."""
-    n_i, n_j = cm.xy.shape[0] - 1, cm.xy.shape[1] - 1
+    n_j = cm.xy.shape[1] - 1
     nw, ns = cm.spec.n_wake, cm.spec.n_side
     lines = np.arange(nw + 1, nw + ns) if side == "lower" else np.arange(nw + ns + 1, nw + 2 * ns)
     i = lines[np.argmin(np.abs(cm.xy[lines, 0, 0] - x_station))]
     seg = np.diff(cm.xy[i], axis=0)                                    # node j -> j + 1 along the line
     normal = np.column_stack([seg[:, 1], -seg[:, 0]])                  # towards increasing i, length-weighted
-    deficit = total_pressure_deficit(f).reshape(n_i, n_j)
-    u = f["u"].reshape(n_i, n_j, 2)
-    nut = f["nut"].reshape(n_i, n_j) * REYNOLDS                         # ν_t/ν (U∞ = c = 1)
-    wall_xy = 0.5 * (cm.xy[:-1, 0] + cm.xy[1:, 0])
-    centre = cm.mesh.centroid.reshape(n_i, n_j, 2)
-    flux = 0.0
-    for col in (i - 1, i):
-        un = np.einsum("jk,jk->j", u[col], normal)
-        dist = np.linalg.norm(centre[col] - wall_xy[col], axis=1)
-        keep = (nut[col] < INVISCID_NUT) & (dist < NEAR_FIELD)
-        # Σ (p0∞ − p0) u·n Δl / (q∞ U∞ c) with U∞ = c = 1: q∞ cancels against the deficit's; mean of the columns
-        flux += 0.5 * np.sum(deficit[col][keep] * un[keep])
-    downstream = np.sign(np.sum(np.einsum("jk,jk->j", u[i], normal)))
+    cells = np.arange(i - 1, i + 1)[:, None] * n_j + np.arange(n_j)    # the two columns (i, j) -> i n_j + j
+    column = {name: f[name][cells] for name in ("u", "p", "k", "nut")}
+    deficit = total_pressure_deficit({name: v.reshape(-1, *v.shape[2:]) for name, v in column.items()})
+    un = np.einsum("cjk,jk->cj", column["u"], normal)
+    wall_xy = 0.5 * (cm.xy[i - 1:i + 1, 0] + cm.xy[i:i + 2, 0])        # wall-face centre of each column
+    dist = np.linalg.norm(cm.mesh.centroid[cells] - wall_xy[:, None, :], axis=2)
+    keep = (column["nut"] * REYNOLDS < INVISCID_NUT) & (dist < NEAR_FIELD)   # ν_t/ν (U∞ = c = 1)
+    # Σ (p0∞ − p0) u·n Δl / (q∞ U∞ c) with U∞ = c = 1: q∞ cancels against the deficit's; mean of the columns
+    flux = 0.5 * np.sum((deficit.reshape(2, n_j) * un)[keep])
+    downstream = np.sign(np.sum(un[1]))
     return float(downstream * flux)
 
 

@@ -11,6 +11,7 @@ import sys
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 sys.path.insert(0, str(Path(__file__).parents[2] / "bench"))
 
@@ -187,7 +188,6 @@ def test_naca_drag_study_total_pressure_loss_flux():
 
 def test_naca_non_orthogonal_option_refuses_negative_counts():
     """``--of-non-orthogonal`` takes an integer >= 0 and names what it got otherwise (argparse exit 2)."""
-    import pytest
     from bench_naca_openfoam import main
 
     for bad in ("-1", "two"):
