@@ -106,25 +106,26 @@ def richardson(values, cells) -> tuple[float | None, float | None]:
     return p, f3 + (f3 - f2) / (r32 ** p - 1)
 
 
-def with_force_parts(record: dict, level: str, alpha: float) -> dict:
-    """``record`` with C_D's pressure and viscous parts, from its wall C_p and c_f where it lacks them (the
-    OpenFOAM records from before session 7)."""
+def with_force_parts(record: dict, mesh, alpha: float) -> dict:
+    """``record`` with C_D's pressure and viscous parts, from its wall C_p and c_f on ``mesh`` where it lacks them
+    (the OpenFOAM records from before session 7)."""
     if "c_d_pressure" in record:
         return record
-    return record | wall_force_parts(naca0012_cmesh(level, alpha_deg=alpha).mesh, record["wall"], alpha)
+    return record | wall_force_parts(mesh, record["wall"], alpha)
 
 
 def convergence_table(records: dict, alpha: float) -> str:
     """Markdown: each code's C_L (the window mean of an oscillating run), C_D, C_D,p, C_D,v on the three levels, the
     observed order and the extrapolation."""
     rows = ["| code | quantity | coarse | medium | fine | observed order | extrapolated |", "| --- " * 7 + "|"]
-    cells = [naca0012_cmesh(level).mesh.n_cells for level in LEVELS]
+    meshes = [naca0012_cmesh(level, alpha_deg=alpha).mesh for level in LEVELS]
+    cells = [m.n_cells for m in meshes]
     for code in CODES:
         recs = [records.get((level, alpha, code)) for level in LEVELS]
         if any(r is None or "error" in r for r in recs):
             rows.append(f"| {code} | (a level is missing) | | | | | |")
             continue
-        recs = [with_force_parts(r, level, alpha) for r, level in zip(recs, LEVELS, strict=True)]
+        recs = [with_force_parts(r, m, alpha) for r, m in zip(recs, meshes, strict=True)]
         for key in ("c_l", "c_d", "c_d_pressure", "c_d_viscous"):
             vals = [lift(r) if key == "c_l" else r[key] for r in recs]      # C_L: window mean if oscillating
             p, ext = richardson(vals, cells)
