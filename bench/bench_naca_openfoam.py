@@ -29,10 +29,10 @@ c_f < 0), iterations, seconds, the spread of C_L over the last 200 iterations an
 ``--of-resume`` continues an OpenFOAM case of ``--work`` from its latest written time up to ``--of-iterations`` in
 all (a run still moving at its cap); the record joins the stretches.
 
-Restart test (docs/validation.md, "Findings (session 3)"): ``--mf-start openfoam`` starts millfoil from
-OpenFOAM's converged fields of the same level and angle (the case must exist under ``--work``); the record's
-code is then ``millfoil...@openfoam``. A converged millfoil solution that differs from OpenFOAM's is then a
-difference of the discrete equations, not of the start (hysteresis), and the drift shows which way.
+Restart test (docs/validation-naca0012-sessions.md, "Findings (session 3)"): ``--mf-start openfoam`` starts
+millfoil from OpenFOAM's converged fields of the same level and angle (the case must exist under ``--work``); the
+record's code is then ``millfoil...@openfoam``. A converged millfoil solution that differs from OpenFOAM's is then
+a difference of the discrete equations, not of the start (hysteresis), and the drift shows which way.
 """
 
 from __future__ import annotations
@@ -175,7 +175,8 @@ def fv_solution(alpha_u: float, alpha_turb: float, non_orthogonal: int = 0) -> s
 
     ``non_orthogonal``: pressure non-orthogonal correctors per iteration. They change the iteration path, not the
     converged solution; the fine C-mesh (non-orthogonality up to 53° where its lines turn, 0.1–0.3 c from the
-    wall) needs 2: with 0 simpleFoam diverges there within ~150 iterations from every start (docs/validation.md)."""
+    wall) needs 2: with 0 simpleFoam diverges there within ~150 iterations from every start
+    (docs/validation-naca0012-sessions.md, session 15)."""
     return f"""solvers
 {{
     p {{ solver GAMG; smoother GaussSeidel; tolerance 1e-9; relTol 0.01; }}

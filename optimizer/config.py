@@ -298,7 +298,8 @@ _SCALARS = (bool, int, float, str)
 #: triangles it costs velocity order (1.98 -> 1.68 at the medium level), so it is not the solver's default.
 #: alpha_p applies from iteration 151 (the first 150 at startup_alpha_p, 1): from iteration 51 it slowed the
 #: coarse blades' lift (bench_openfoam 4 of 6 cases within OpenFOAM's time, 6 of 6 from 151) for one more
-#: converged blade in 100 (docs/validation-blades.md, docs/validation.md, docs/performance.md, session 12).
+#: converged blade in 100 (docs/validation-blades.md, docs/validation-naca0012-sessions.md, docs/performance.md,
+#: session 12).
 #: The bounded face velocity of the mass flux brings random18's and table5's C_max within 1 % of OpenFOAM's on the
 #: same medium meshes (random16's to -1.03 %), for lift further from OpenFOAM's on coarse meshes (session 13).
 #: The momentum convection limiter's K is 100, not the solver's 5: Venkatakrishnan's eps² = (K h)³ is dimensional,

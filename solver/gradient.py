@@ -169,8 +169,8 @@ def _venkatakrishnan_wang(mesh, phi, phi_b, grad, k):
     the field's unit, so how strongly it limits depends on the units and the scale of the problem; in
     the leading-edge boundary layer of the NACA 0012 case (c = 1 m, U = 1 m/s, h = √area of the thin
     wall cells) it is ~1e-4 U against neighbour differences of ~0.1 U, a min-max limiter there
-    (docs/validation.md, "Findings (session 3)", item 5), and on the blades (C0 = 10 m/s, chord ~0.1 m)
-    relatively stronger still. Wang's ``eps`` is a fraction of the field's own range: ``psi`` is
+    (docs/validation-naca0012-sessions.md, "Findings (session 3)", item 5), and on the blades (C0 = 10 m/s,
+    chord ~0.1 m) relatively stronger still. Wang's ``eps`` is a fraction of the field's own range: ``psi`` is
     unchanged when the field is scaled or offset (any unit, any speed) and when the mesh is scaled (any
     length unit); differences between neighbours well below ``eps`` (smooth, resolved variation: the outer
     flow, a resolved shear layer) pass nearly unlimited, while those of the order of the range (the

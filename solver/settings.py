@@ -81,7 +81,8 @@ class SimpleSettings:
         linear-upwind reconstruction (OpenFOAM's ``linearUpwind``) after them; None (default): throughout.
         From a potential or uniform start the unlimited scheme diverges within a few iterations (the slip
         velocity meeting the no-slip wall), while on a settled boundary layer the limiter clips the young
-        layer near the leading edge and costs lift near stall (docs/validation.md, "Findings (session 3)").
+        layer near the leading edge and costs lift near stall (docs/validation-naca0012-sessions.md,
+        "Findings (session 3)").
         The stop tests wait until the limiter is off, so the solution returned is the unlimited one.
     max_iter: iteration cap. tol: scaled-residual tolerance for u, v and continuity.
     monitor_tol, monitor_window: integral quantities must vary less than ``monitor_tol`` (relative)
@@ -140,7 +141,7 @@ class SimpleSettings:
         same meshes the random blades' lift within 1.5 % on 10 of 10 (least squares 9), table4 out of its
         leading-edge stall, and the NACA 0012 coarse C-mesh at 16 deg -1.6 % (-5.4 %); the TMR references met
         on every level. The bound matters at a G0 blade's corner nose, where the unbounded reconstruction put
-        C_max 58 % above OpenFOAM's (docs/validation-blades.md and docs/validation.md, session 12).
+        C_max 58 % above OpenFOAM's (docs/validation-blades.md and docs/validation-naca0012-sessions.md, session 12).
     face_velocity: the velocity that carries the Rhie–Chow mass flux through each face
         (:func:`solver.pressure.face_velocity`): ``"corrected"``, reconstructed from both cells with their
         gradients (exact for linear fields on skewed meshes), or ``"bounded"``, the same with each
@@ -152,7 +153,7 @@ class SimpleSettings:
         and narrows random16's and random18's (-1.27 -> -1.03 %, -1.29 -> -0.89 %); the robustness sweeps
         keep every class. On coarse blade meshes it moves the lift 0.2-1.9 % up, away from OpenFOAM's on most.
         Not the solver's default: the DFG cylinder's coarse lift error becomes 0.00428, above its 0.004
-        (docs/validation.md, docs/validation-blades.md, session 13).
+        (docs/validation-naca0012-sessions.md, docs/validation-blades.md, session 13).
     green_gauss_relaxation: under-relaxation, between iterations, of the ``green_gauss`` pressure gradient's
         correction (its difference from ``green_gauss_linear``: the face values' reconstruction terms), in
         (0, 1]; 1: none. The converged solution does not depend on it. Why: the reconstruction brings the

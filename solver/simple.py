@@ -87,7 +87,7 @@ ALGORITHMS: dict[str, Callable[[np.ndarray, MomentumSystem], np.ndarray]] = {
 #: the momentum source and least squares in Rhie–Chow, the face flux kept ``D̄ (ḡ_LS - ḡ_GG)·e``, a pressure
 #: term the p' equation does not see, and on the fine NACA 0012 C-mesh at 10° a pressure/v mode grew from
 #: ~2 500 iterations in the band of 30-53° non-orthogonal cells 0.2-0.6 chords above the suction side
-#: (docs/validation.md, "The Green–Gauss pressure gradient on the fine mesh (session 6)").
+#: (docs/validation-naca0012-sessions.md, "The Green–Gauss pressure gradient on the fine mesh (session 6)").
 PRESSURE_GRADIENTS: dict[str, Callable] = {
     "least_squares": lambda mesh, p, p_b, grad_p: grad_p,
     "green_gauss": green_gauss_gradient,

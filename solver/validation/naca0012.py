@@ -20,7 +20,7 @@ and the two-point wall omega flux. Against OpenFOAM's ``kOmegaSST`` on the same 
 put C_L,max at OpenFOAM's angle (coarse 16 deg, medium 17 deg) with OpenFOAM's coarse-to-medium trend, and the
 lift within 1 % from 13 to 17 deg (coarse) and at 12 and 14-17 deg (medium), but +1.1 to +1.2 % at 10-12 deg
 (coarse); against CFL3D at 10 deg: coarse C_L -1.18 %, C_D -7.6 %, fine -0.96 % / -1.83 %
-(docs/validation.md, "Drag on the same mesh, and the medium sweep (session 7)"). The default keeps the
+(docs/validation-naca0012-sessions.md, "Drag on the same mesh, and the medium sweep (session 7)"). The default keeps the
 case's TMR figures and loses lift near stall on the coarse mesh (-7 % at 16 deg).
 
 Compared with CFL3D SST on the 897x257 grid (``solver/validation/reference/tmr_naca0012_cfl3d_sst_*.csv``, copied
@@ -139,13 +139,13 @@ def boundary_conditions(alpha_deg: float, turbulent: bool = True, c_l: float | N
 #: linear-upwind gradient is limited in session 3-4's near-stall variant (``naca_settings(near_stall=True,
 #: limiter="venkatakrishnan", limiter_k=5, limiter_iterations=LIMITER_ITERATIONS)``); after them it is
 #: unlimited, OpenFOAM's ``linearUpwind``. Unlimited from the start, the potential flow's slip velocity at the
-#: no-slip wall diverges within 4 iterations (docs/validation.md, "Findings (session 3)").
+#: no-slip wall diverges within 4 iterations (docs/validation-naca0012-sessions.md, "Findings (session 3)").
 LIMITER_ITERATIONS = 500
 
 #: The near-stall solver settings (issue 15): the Venkatakrishnan-Wang limiter with k = 20 throughout (it spares
 #: the young leading-edge boundary layer that K = 5 Venkatakrishnan clips; k = 40 left coarse 10 deg's C_D at
 #: -9.9 % of CFL3D, outside its 8 %) and the Green-Gauss pressure gradient (OpenFOAM's ``Gauss linear``),
-#: which Rhie-Chow uses too (docs/validation.md, sessions 5-7).
+#: which Rhie-Chow uses too (docs/validation-naca0012-sessions.md, sessions 5-7).
 NEAR_STALL_SETTINGS = {"limiter": "venkatakrishnan_wang", "limiter_k": 20.0, "pressure_gradient": "green_gauss"}
 #: The near-stall SST options: OpenFOAM's (and Menter 2003's) limited omega production and the two-point omega
 #: flux next to the wall cells.

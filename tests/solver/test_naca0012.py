@@ -209,8 +209,8 @@ def test_the_limited_start_up_counts_over_the_run_and_the_stop_test_waits_for_it
 
 def test_the_near_stall_variant_adds_its_sst_terms_to_the_case_default():
     """The near-stall SST is SST-2003 (``low_re``) with OpenFOAM's limited omega production and the two-point
-    wall omega flux (docs/validation.md, "Tried as the default (session 4)"); the case's default SST is SST-2003
-    with the limited omega production alone (session 14)."""
+    wall omega flux (docs/validation-naca0012-sessions.md, "Tried as the default (session 4)"); the case's
+    default SST is SST-2003 with the limited omega production alone (session 14)."""
     from solver.turbulence import SST
     from solver.validation.naca0012 import naca_turbulence
 
