@@ -44,6 +44,7 @@ import os
 import shutil
 import sys
 import time
+from itertools import pairwise
 from pathlib import Path
 
 import numpy as np
@@ -496,6 +497,50 @@ def report(records: dict) -> str:
     return "\n".join(lines) + "\n\n" + "\n".join(f"- {n}" for n in notes)
 
 
+#: Issue 15's same-mesh tolerances: lift (relative), drag (relative), the angle of C_L,max (degrees).
+LIFT_TOLERANCE, DRAG_TOLERANCE, ANGLE_TOLERANCE = 0.01, 0.03, 1.0
+LEVELS = ("coarse", "medium", "fine")
+
+
+def criteria(records: dict, code: str = "millfoil", reference: str = "openfoam") -> str:
+    """Issue 15's same-mesh criteria, ``code`` against ``reference``, per level: the angles up to the reference's
+    C_L,max (lift from 2°: at 0° C_L is ~0) where ΔC_L exceeds :data:`LIFT_TOLERANCE` or ΔC_D
+    :data:`DRAG_TOLERANCE`, the angle of C_L,max of each, and from one level to the next the C_L change of both
+    at the angles both levels have. Markdown; oscillating runs count by their window mean (:func:`lift`)."""
+    def runs(level, name):
+        return {a: r for (lv, a, c), r in records.items() if lv == level and c == name and "error" not in r}
+
+    rows = [f"| level | angles compared | C_L,max at ({code} / {reference}) | ΔC_L outside "
+            f"{LIFT_TOLERANCE:.0%} | ΔC_D outside {DRAG_TOLERANCE:.0%} |", "| --- | --- | --- | --- | --- |"]
+    trend = []
+    levels = [lv for lv in LEVELS if any(k[0] == lv for k in records)]
+    for level in levels:
+        mine, theirs = runs(level, code), runs(level, reference)
+        both = sorted(set(mine) & set(theirs))
+        if not both:
+            continue
+        a_mine = max(mine, key=lambda a: lift(mine[a]))
+        a_theirs = max(theirs, key=lambda a: lift(theirs[a]))
+        upto = [a for a in both if a <= a_theirs]
+        d_lift = {a: lift(mine[a]) / lift(theirs[a]) - 1 for a in upto if a > 0}
+        d_drag = {a: mine[a]["c_d"] / theirs[a]["c_d"] - 1 for a in upto}
+        outside = [", ".join(f"{a:g}° ({100 * d[a]:+.2f} %)" for a in d if abs(d[a]) > tol) or "none"
+                   for d, tol in ((d_lift, LIFT_TOLERANCE), (d_drag, DRAG_TOLERANCE))]
+        flag = "" if abs(a_mine - a_theirs) <= ANGLE_TOLERANCE else " (outside 1°)"
+        rows.append(f"| {level} | {', '.join(f'{a:g}' for a in both)} | {a_mine:g}° / {a_theirs:g}°{flag} | "
+                    f"{outside[0]} | {outside[1]} |")
+    for low, high in pairwise(levels):
+        pairs = []
+        for a in sorted(set(runs(low, code)) & set(runs(high, code)) & set(runs(low, reference))
+                        & set(runs(high, reference))):
+            if a > 0:
+                ratio = [lift(runs(high, n)[a]) / lift(runs(low, n)[a]) - 1 for n in (code, reference)]
+                pairs.append(f"{a:g}° {100 * ratio[0]:+.2f} / {100 * ratio[1]:+.2f} %")
+        if pairs:
+            trend.append(f"- C_L {low} → {high} ({code} / {reference}): " + "; ".join(pairs))
+    return "\n".join(rows + [""] + trend)
+
+
 def ladson_at(alpha_deg: float) -> tuple[float, float] | None:
     """Ladson's C_L, C_D at ``alpha_deg``: the mean over the three trip series of each one's linear
     interpolation; None outside the measured range of any series."""
@@ -662,6 +707,7 @@ def main(argv=None) -> None:
         records = load_records(args.report)
         codes = set(args.report_codes or {k[2] for k in records})
         print(report({k: r for k, r in records.items() if k[2] in codes}))
+        print("\n" + criteria(records))
         for path in plot(records):
             print(f"wrote {path.relative_to(ROOT)}")
         return

@@ -217,3 +217,28 @@ def test_naca_resumed_case_joins_its_coefficients_and_cpu(tmp_path):
     (tmp_path / "log.simpleFoam.4000").write_text("ExecutionTime = 100.5 s  ClockTime = 101 s\n")
     (tmp_path / "log.simpleFoam").write_text("ExecutionTime = 3 s\nExecutionTime = 20.25 s  ClockTime = 21 s\n")
     assert cpu_seconds(tmp_path) == 120.75
+
+
+def test_naca_criteria_names_the_angles_outside_each_tolerance():
+    """The criteria summary: lift from 2° and drag from 0° up to the reference's C_L,max, not beyond; the angle of
+    C_L,max of each code; an oscillating run by its window mean; the level-to-level C_L change of both codes."""
+    from bench_naca_openfoam import criteria
+
+    def rec(c_l, c_d, window=None):
+        r = {"c_l": c_l, "c_d": c_d, "converged": window is None, "cl_spread_window": 1e-2 if window else None}
+        return r | ({"cl_mean_window": window} if window else {})
+
+    records = {("coarse", 0.0, "openfoam"): rec(0.001, 0.0100), ("coarse", 0.0, "millfoil"): rec(0.0, 0.0101),
+               ("coarse", 2.0, "openfoam"): rec(0.200, 0.0100), ("coarse", 2.0, "millfoil"): rec(0.203, 0.0096),
+               ("coarse", 10.0, "openfoam"): rec(1.000, 0.0150), ("coarse", 10.0, "millfoil"): rec(1.009, 0.0150),
+               ("coarse", 12.0, "openfoam"): rec(9.0, 0.0300, window=0.9),  # oscillating: C_L,max stays at 10°
+               ("coarse", 12.0, "millfoil"): rec(0.950, 0.0200),
+               ("medium", 10.0, "openfoam"): rec(1.010, 0.0140), ("medium", 10.0, "millfoil"): rec(1.0292, 0.0142)}
+    text = criteria(records)
+    coarse = next(line for line in text.splitlines() if line.startswith("| coarse"))
+    assert "| 0, 2, 10, 12 | 10° / 10° |" in coarse
+    assert "2° (+1.50 %)" in coarse and "10°" not in coarse.split("|")[4]      # lift: 10° is +0.90 %
+    assert "2° (-4.00 %)" in coarse and "12°" not in coarse.split("|")[5]      # drag: 12° is past C_L,max
+    assert "- C_L coarse → medium (millfoil / openfoam): 10° +2.00 / +1.00 %" in text
+    medium = next(line for line in text.splitlines() if line.startswith("| medium"))
+    assert medium.split("|")[4].strip() == "10° (+1.90 %)" and medium.split("|")[5].strip() == "none"
