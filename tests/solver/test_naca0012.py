@@ -217,3 +217,14 @@ def test_the_near_stall_variant_adds_its_sst_terms_to_the_case_default():
     t = naca_turbulence(near_stall=True)
     assert t == SST(wall_treatment="low_re", omega_production="limited", omega_wall_flux="two_point")
     assert naca_turbulence() == SST(wall_treatment="low_re", omega_production="limited")
+
+
+def test_the_relative_lift_stop_test_scales_with_the_lift_and_keeps_a_floor_at_zero_incidence():
+    """``Convergence.cl_rel``: the allowed C_L window change is relative to |C_L| (0.2: 2e-5 at 1e-4), with
+    ``CL_SCALE_MIN`` as the scale near zero lift; without it the absolute ``cl_tol`` as before."""
+    from solver.validation.naca0012 import CL_SCALE_MIN, Convergence
+
+    assert Convergence().cl_tolerance(0.2) == Convergence().cl_tol == 5e-4
+    tight = Convergence(cl_rel=1e-4)
+    assert tight.cl_tolerance(0.2) == pytest.approx(2e-5) and tight.cl_tolerance(-1.5) == pytest.approx(1.5e-4)
+    assert tight.cl_tolerance(1e-6) == pytest.approx(1e-4 * CL_SCALE_MIN)
