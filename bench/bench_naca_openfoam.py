@@ -13,9 +13,10 @@ conditions (docs/validation.md, "Matching the conditions"):
   ``omegaWallFunction``, which does exactly this below y+ = 11 in v1912), ν_t = 0 at the wall;
 * SST-2003 (millfoil) and ``kOmegaSST`` (OpenFOAM v1912, default coefficients = SST-2003 constants);
 * linear-upwind U (limited least-squares gradient), first-order upwind k and ω;
-* millfoil runs its validation settings through :func:`solver.validation.naca0012.run_naca0012`; OpenFOAM
-  runs SIMPLEC (``consistent``) with GAMG; the fine level needs ``--of-non-orthogonal 2`` (pressure
-  non-orthogonal correctors: the same converged solution, a path that survives the mesh's 53° cells).
+* millfoil runs its validation settings through :func:`solver.validation.naca0012.run_naca0012`, stopped when
+  C_L changes by less than :data:`CL_REL` of itself over 500 iterations (``--mf-cl-rel``); OpenFOAM runs SIMPLEC
+  (``consistent``) with GAMG; the fine level needs ``--of-non-orthogonal 2`` (pressure non-orthogonal
+  correctors: the same converged solution, a path that survives the mesh's 53° cells).
 
 Per angle and code it records C_L, C_D (pressure + viscous, along and normal to U∞), C_max = max |u|/U∞ over
 the cells, the suction-side separation point (x/c of the first wall face from the leading edge whose
