@@ -676,6 +676,17 @@ def non_negative_int(text: str) -> int:
     return value
 
 
+def non_negative_float(text: str) -> float:
+    """An argparse type: a number >= 0 (``--mf-cl-rel``)."""
+    try:
+        value = float(text)
+    except ValueError:
+        value = -1.0
+    if not value >= 0:
+        raise argparse.ArgumentTypeError(f"needs a number >= 0, got {text!r}")
+    return value
+
+
 def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--levels", nargs="+", default=["coarse"])
@@ -697,8 +708,9 @@ def main(argv=None) -> None:
                         help="continue an existing OpenFOAM case under --work from its latest written time up to "
                              "--of-iterations in all (a run that was still moving at its cap)")
     parser.add_argument("--mf-iterations", type=int, default=12000, help="millfoil iteration cap")
-    parser.add_argument("--mf-cl-rel", type=float, default=CL_REL, help="millfoil stop test: the C_L change over "
-                        "its 500-iteration window relative to C_L (0: the validation case's absolute 5e-4)")
+    parser.add_argument("--mf-cl-rel", type=non_negative_float, default=CL_REL, metavar="R",
+                        help="millfoil stop test: the C_L change over its 500-iteration window relative to C_L "
+                             "(0: the validation case's absolute 5e-4)")
     parser.add_argument("--mf-variant", nargs="*", default=[], metavar="KEY=VALUE",
                         help="millfoil experiment: limiter=none, face_interpolation=linear, ... (run_millfoil)")
     parser.add_argument("--mf-start", choices=["potential", "openfoam"], default="potential",

@@ -219,6 +219,10 @@ class Convergence:
     window: int = 5
     cl_rel: float | None = None
 
+    def __post_init__(self):
+        if self.cl_rel is not None and not self.cl_rel > 0:
+            raise ValueError(f"Convergence.cl_rel must be > 0 or None (the absolute cl_tol), got {self.cl_rel!r}")
+
     def cl_tolerance(self, c_l: float) -> float:
         """The allowed C_L change over the window at lift ``c_l``."""
         return self.cl_tol if self.cl_rel is None else self.cl_rel * max(abs(c_l), CL_SCALE_MIN)

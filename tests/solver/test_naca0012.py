@@ -228,3 +228,6 @@ def test_the_relative_lift_stop_test_scales_with_the_lift_and_keeps_a_floor_at_z
     tight = Convergence(cl_rel=1e-4)
     assert tight.cl_tolerance(0.2) == pytest.approx(2e-5) and tight.cl_tolerance(-1.5) == pytest.approx(1.5e-4)
     assert tight.cl_tolerance(1e-6) == pytest.approx(1e-4 * CL_SCALE_MIN)
+    for bad in (0.0, -1e-4, float("nan")):
+        with pytest.raises(ValueError, match="cl_rel"):
+            Convergence(cl_rel=bad)

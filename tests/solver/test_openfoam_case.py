@@ -186,13 +186,18 @@ def test_naca_drag_study_total_pressure_loss_flux():
         assert 0.6 * delta * NEAR_FIELD < flux < 1.2 * delta * NEAR_FIELD
 
 
-def test_naca_non_orthogonal_option_refuses_negative_counts():
-    """``--of-non-orthogonal`` takes an integer >= 0 and names what it got otherwise (argparse exit 2)."""
+def test_naca_options_refuse_negative_values():
+    """``--of-non-orthogonal`` takes an integer >= 0 and ``--mf-cl-rel`` a number >= 0; otherwise argparse names what
+    it got and exits with 2."""
     from bench_naca_openfoam import main
 
     for bad in ("-1", "two"):
         with pytest.raises(SystemExit) as exc:
             main(["--of-non-orthogonal", bad, "--codes", "openfoam", "--levels", "coarse"])
+        assert exc.value.code == 2
+    for bad in ("-1e-4", "nan", "tight"):
+        with pytest.raises(SystemExit) as exc:
+            main(["--mf-cl-rel", bad, "--codes", "millfoil", "--levels", "coarse"])
         assert exc.value.code == 2
 
 
