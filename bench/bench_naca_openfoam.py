@@ -665,26 +665,18 @@ def _plot_wall(records: dict, level: str, a: float, styles: dict, directory: Pat
 
 
 # --------------------------------------------------------------------------------------------------- CLI
-def non_negative_int(text: str) -> int:
-    """An argparse type: an integer >= 0 (``--of-non-orthogonal``)."""
-    try:
-        value = int(text)
-    except ValueError:
-        value = -1
-    if value < 0:
-        raise argparse.ArgumentTypeError(f"needs an integer >= 0, got {text!r}")
-    return value
-
-
-def non_negative_float(text: str) -> float:
-    """An argparse type: a number >= 0 (``--mf-cl-rel``)."""
-    try:
-        value = float(text)
-    except ValueError:
-        value = -1.0
-    if not value >= 0:
-        raise argparse.ArgumentTypeError(f"needs a number >= 0, got {text!r}")
-    return value
+def non_negative(kind: type):
+    """An argparse type: a ``kind`` (int or float) >= 0 (``--of-non-orthogonal``, ``--mf-cl-rel``); anything else,
+    NaN included, exits with 2 and names the value."""
+    def parse(text: str):
+        try:
+            value = kind(text)
+        except ValueError:
+            value = -1
+        if not value >= 0:
+            raise argparse.ArgumentTypeError(f"needs {'an integer' if kind is int else 'a number'} >= 0, got {text!r}")
+        return value
+    return parse
 
 
 def main(argv=None) -> None:
@@ -702,13 +694,13 @@ def main(argv=None) -> None:
     parser.add_argument("--of-code", default="openfoam", help="code name of the OpenFOAM records (experiments: "
                         "e.g. openfoam[gradient=leastSquares]; the report's table compares millfoil with 'openfoam')")
     parser.add_argument("--of-alpha-u", type=float, default=0.9, help="simpleFoam U relaxation (SIMPLEC)")
-    parser.add_argument("--of-non-orthogonal", type=non_negative_int, default=0, metavar="N",
+    parser.add_argument("--of-non-orthogonal", type=non_negative(int), default=0, metavar="N",
                         help="simpleFoam pressure non-orthogonal correctors (the fine mesh needs 2)")
     parser.add_argument("--of-resume", action="store_true",
                         help="continue an existing OpenFOAM case under --work from its latest written time up to "
                              "--of-iterations in all (a run that was still moving at its cap)")
     parser.add_argument("--mf-iterations", type=int, default=12000, help="millfoil iteration cap")
-    parser.add_argument("--mf-cl-rel", type=non_negative_float, default=CL_REL, metavar="R",
+    parser.add_argument("--mf-cl-rel", type=non_negative(float), default=CL_REL, metavar="R",
                         help="millfoil stop test: the C_L change over its 500-iteration window relative to C_L "
                              "(0: the validation case's absolute 5e-4)")
     parser.add_argument("--mf-variant", nargs="*", default=[], metavar="KEY=VALUE",
