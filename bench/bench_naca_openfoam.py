@@ -76,7 +76,7 @@ from solver.validation.naca0012 import REYNOLDS, freestream, load_clcd, tmr_free
 #: Default angles of attack, deg: steps of 2 up to 12, then 1 through C_L,max (SST: about 16-18 deg).
 ALPHAS = (0, 2, 4, 6, 8, 10, 12, 13, 14, 15, 16, 17, 18, 19, 20)
 #: millfoil's stop test here: C_L may change by 1e-4 of itself over the 500-iteration window (the validation
-#: case's absolute 5e-4 stops the low-incidence runs while C_L still drifts: 0.3-0.6 % high at 2-4 deg; session 16).
+#: case's absolute 5e-4 stops the low-incidence runs while C_L still drifts: 0.1-0.5 % high at 2-8 deg; session 16).
 CL_REL = 1e-4
 LADSON_FILE = ROOT.parent / "shared" / "reference" / "ladson_naca0012_clcd.csv"
 FIGURES = ROOT / "docs" / "figures" / "validation"
@@ -539,11 +539,11 @@ def criteria(records: dict, code: str = "millfoil", reference: str = "openfoam")
         rows.append(f"| {level} | {', '.join(f'{a:g}' for a in both)} | {a_mine:g}° / {a_theirs:g}°{flag} | "
                     f"{outside[0]} | {outside[1]} |")
     for low, high in pairwise(levels):
+        by = {(lv, n): runs(lv, n) for lv in (low, high) for n in (code, reference)}
         pairs = []
-        for a in sorted(set(runs(low, code)) & set(runs(high, code)) & set(runs(low, reference))
-                        & set(runs(high, reference))):
+        for a in sorted(set.intersection(*(set(r) for r in by.values()))):
             if a > 0:
-                ratio = [lift(runs(high, n)[a]) / lift(runs(low, n)[a]) - 1 for n in (code, reference)]
+                ratio = [lift(by[high, n][a]) / lift(by[low, n][a]) - 1 for n in (code, reference)]
                 pairs.append(f"{a:g}° {100 * ratio[0]:+.2f} / {100 * ratio[1]:+.2f} %")
         if pairs:
             trend.append(f"- C_L {low} → {high} ({code} / {reference}): " + "; ".join(pairs))

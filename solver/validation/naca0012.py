@@ -207,8 +207,8 @@ class Convergence:
 
     ``cl_tol`` is absolute (C_L is ~0 at α = 0). ``cl_rel`` (None: off) makes it relative instead,
     ``cl_rel * max(|C_L|, CL_SCALE_MIN)``: at low incidence the lift settles by a slow monotone drift (on the
-    coarse C-mesh at 2° C_L falls by 2·10⁻⁴ per 500 iterations when the absolute test stops it, and by another
-    0.3 % before it settles), so a window change of 5·10⁻⁴ leaves it 0.3–0.6 % high at 2°–4°
+    coarse C-mesh at 2° C_L falls by about 10⁻⁴ per 500 iterations when the absolute test stops it, and by
+    another 0.2–0.3 % before it settles), so a window change of 5·10⁻⁴ leaves it 0.15–0.55 % high at 2°–4°
     (docs/validation-naca0012-sessions.md, session 16). The side-by-side harness uses ``cl_rel``."""
 
     chunk: int = 100
