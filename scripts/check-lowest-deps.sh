@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Check that the dependency floors of pyproject.toml are versions the code runs on (issue 11 item 9):
+# Check that the dependency floors of pyproject.toml are versions the code runs on:
 # install the LOWEST version every floor allows (uv's --resolution lowest-direct) into a fresh virtual
 # environment and run the fast test tier there. A failure means a floor must be raised (or the code fixed);
 # record a passing run in docs/dependencies.md.
