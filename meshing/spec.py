@@ -18,7 +18,7 @@ fine       88      484     42 588     ~27 800      ~70 400
 Random feasible blades stay within a few per cent of these counts. A narrower channel has fewer
 triangles (half_height = 1: ~1 450 / ~5 000 / ~18 600).
 
-Limits (issue 11, "bound what the inputs drive"): every field lies in the range of :data:`BOUNDS`, the
+Limits: every field lies in the range of :data:`BOUNDS`, the
 chord Reynolds number in :data:`REYNOLDS_RANGE` and the first cell within the O-layer, and the cell count
 that :meth:`MeshSpec.estimate_cells` predicts stays within :data:`CELL_BUDGET`. A spec outside them raises
 :class:`MeshSpecError` naming the field, its value, the allowed range and why, before any meshing.
@@ -115,6 +115,30 @@ CELL_BUDGET = 1_000_000
 #: Effective area of one far-field triangle in units of its target size squared (an equilateral one is
 #: 0.433): fitted to the three levels' triangle counts in the module docstring (both channel heights).
 TRIANGLE_AREA = 0.35
+
+
+#: What each :class:`MeshSpec` field means (its unit and range are in :data:`BOUNDS`): the one description
+#: that the configuration's ``mesh:`` section carries.
+FIELD_DOCS: dict[str, str] = {
+    "level": "resolution preset (LEVELS: coarse, medium, fine) that sets wall_nodes, growth, far_size, "
+             "size_gradient and max_turn",
+    "upstream": "distance from the most upstream blade point to the inlet, chords",
+    "downstream": "distance from the most downstream blade point to the outlet, chords",
+    "half_height": "distance from the middle of the blade's y extent to the top and bottom walls, chords",
+    "side_offset": "thickness of the O-layer of quads on the blade's sides (offset of the profile), chords",
+    "te_offset": "thickness of the O-layer around the trailing edge, chords",
+    "y_plus": "target y+ of the first wall node, from a flat-plate skin-friction correlation at the chord "
+              "Reynolds number",
+    "flow_speed": "flow speed that places the first cell, m/s (default: flow.speed)",
+    "viscosity": "kinematic viscosity that places the first cell, m²/s (default: flow.viscosity / flow.density)",
+    "wall_nodes": "target number of nodes on the blade wall",
+    "growth": "largest ratio of consecutive cell heights in the O-layer",
+    "far_size": "largest far-field triangle size, chords (at most a quarter of the channel height)",
+    "size_gradient": "increase of the triangle size per unit distance from the O-layer",
+    "max_turn": "largest turning of the wall between two wall nodes, degrees",
+    "corner_ratio": "wall spacing at sharp corners as a fraction of the largest wall spacing",
+    "wall_gradient": "largest increase of the wall spacing per unit wall length",
+}
 
 
 @dataclass(frozen=True)

@@ -16,7 +16,6 @@ from __future__ import annotations
 import copy
 import dataclasses
 import math
-import re
 import reprlib
 import warnings
 from collections.abc import Iterable, Mapping, Sequence
@@ -38,9 +37,24 @@ from pydantic import (
 from geometry import BladeSpec, Continuity, Mode, ParameterError, ParameterSpace
 from geometry.examples import TABLE4_C2_DESIGN
 from meshing import LEVELS, MeshSpec, MeshSpecError
+from meshing.spec import BOUNDS as MESH_BOUNDS
+from meshing.spec import FIELD_DOCS as MESH_FIELD_DOCS
 from optimizer import yamlsource
 from optimizer.yamlsource import Source
-from solver import SimpleSettings
+from solver.assembly import CONVECTION_SCHEMES
+from solver.gradient import LIMITERS
+from solver.pressure import FACE_VELOCITIES
+from solver.settings import SimpleSettings, setting_doc
+from solver.simple import ALGORITHMS, PRESSURE_GRADIENTS
+from solver.turbulence import (
+    MODELS,
+    OMEGA_PRODUCTIONS,
+    OMEGA_WALL_FLUXES,
+    SST,
+    VELOCITY_GRADIENTS,
+    WALL_TREATMENTS,
+)
+from solver.warmstart import INITIAL_FIELDS
 
 
 class ConfigError(ValueError):
@@ -68,11 +82,22 @@ def shorten(value: Any) -> str:
     return _REPR.repr(value)
 
 
-class _Frozen(BaseModel):
-    """Base of every configuration section: unknown keys are errors, the result is frozen, numbers are
-    finite, and a boolean is never read as a number (``alpha: true`` would otherwise be 1)."""
+class Section(BaseModel):
+    """Base of every configuration section (``blade:``, ``mesh:``, ``flow:``, ``solver:`` and the campaign's):
+    frozen; an unknown key is an error naming the allowed ones; numbers are finite (no nan, no inf); a
+    boolean is never read as a number (``alpha: true`` would otherwise be 1). The same refusals whether a
+    section is read from a file (:func:`explain` adds the file and line) or built in Python."""
 
     model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
+
+    @model_validator(mode="before")
+    @classmethod
+    def _known_keys(cls, data: Any) -> Any:
+        if isinstance(data, Mapping):
+            unknown = [key for key in data if key not in cls.model_fields]
+            if unknown:
+                raise UnknownKeys(unknown, tuple(cls.model_fields))
+        return data
 
     @field_validator("*", mode="before")
     @classmethod
@@ -83,6 +108,15 @@ class _Frozen(BaseModel):
             if where is not None:
                 raise _BooleanForNumber(where)
         return v
+
+
+class UnknownKeys(ValueError):
+    """Keys a section does not have; ``keys``: them, ``allowed``: the section's keys."""
+
+    def __init__(self, keys: Sequence[Any], allowed: Sequence[str]):
+        self.keys, self.allowed = tuple(keys), tuple(allowed)
+        names = ", ".join(f"'{shorten(k) if not isinstance(k, str) else _short_key(k)}'" for k in self.keys)
+        super().__init__(f"unknown key{'s' * (len(self.keys) > 1)} {names}; allowed: {', '.join(self.allowed)}")
 
 
 def _wants_number(annotation: Any) -> bool:
@@ -117,7 +151,7 @@ class _BooleanForNumber(ValueError):
         self.path = path
 
 
-class BladeConfig(_Frozen):
+class BladeConfig(Section):
     """``blade:`` section — the blade family and one blade of it.
 
     ``parameters`` are the values of one blade (metres and degrees; parameters with a default — L, d_s4,
@@ -128,11 +162,17 @@ class BladeConfig(_Frozen):
     Table 6: a bound frees a fixed parameter or narrows a range, a fixed value removes a design variable.
     """
 
-    mode: Mode = Mode(TABLE4_C2_DESIGN["mode"])
-    continuity: Continuity = Continuity(TABLE4_C2_DESIGN["continuity"])
-    parameters: dict[str, float] = Field(default_factory=dict)
-    bounds: dict[str, tuple[float, float]] = Field(default_factory=dict)
-    fixed: dict[str, float] = Field(default_factory=dict)
+    mode: Mode = Field(Mode(TABLE4_C2_DESIGN["mode"]), description="blade family: how the profile is built "
+                       "(geometry.Mode: the paper's parametrisations)")
+    continuity: Continuity = Field(Continuity(TABLE4_C2_DESIGN["continuity"]), description="continuity of the "
+                                   "profile's curves where they join (geometry.Continuity)")
+    parameters: dict[str, float] = Field(default_factory=dict, description="values of one blade, name: value (m "
+                                         "and degrees; `millfoil space` lists the names); left out: Table 4's C2 "
+                                         "design unless the section names its own family")
+    bounds: dict[str, tuple[float, float]] = Field(default_factory=dict, description="name: [lower, upper], m or "
+                                                   "degrees: frees a fixed parameter or narrows a range of Table 6")
+    fixed: dict[str, float] = Field(default_factory=dict, description="name: value, m or degrees: removes a "
+                                    "design variable from the optimisation space")
 
     @model_validator(mode="before")
     @classmethod
@@ -168,10 +208,27 @@ class BladeConfig(_Frozen):
             raise ConfigError(f"blade.bounds/fixed: {exc}") from None
 
 
-class _MeshBase(_Frozen):
+class _MeshBase(Section):
     def given(self) -> dict[str, Any]:
         """The MeshSpec fields this section sets (``level`` apart): those not None."""
         return {k: v for k, v in self.model_dump().items() if k != "level" and v is not None}
+
+
+def _mesh_doc(name: str) -> str:
+    """The description of a ``mesh:`` key: the MeshSpec field's, and what leaving it out (null) means."""
+    doc = MESH_FIELD_DOCS[name]
+    if name in LEVELS["medium"]:
+        return f"{doc}; null: the level's value"
+    if name in ("flow_speed", "viscosity"):
+        return doc
+    return f"{doc}; null: {getattr(MeshSpec(), name):g}"
+
+
+def _mesh_extra(name: str) -> dict[str, str]:
+    """The unit, range and why of a MeshSpec field (:data:`meshing.spec.BOUNDS`), for the schema."""
+    bound = MESH_BOUNDS.get(name)
+    return {} if bound is None else {k: v for k, v in (("unit", bound.unit), ("range", bound.text()),
+                                                       ("why", bound.why)) if v}
 
 
 # ``mesh:`` section — the resolution ``level`` and any field of :class:`meshing.MeshSpec` (domain size in
@@ -181,35 +238,35 @@ MeshConfig = create_model(
     "MeshConfig",
     __base__=_MeshBase,
     __doc__="``mesh:`` section: resolution level and MeshSpec overrides (see meshing.MeshSpec).",
-    level=(Literal[tuple(LEVELS)], "medium"),
-    **{f.name: ({"float": float, "int": int}[f.type] | None, None)
+    level=(Literal[tuple(LEVELS)], Field("medium", description=MESH_FIELD_DOCS["level"])),
+    **{f.name: ({"float": float, "int": int}[f.type] | None, Field(None, description=_mesh_doc(f.name),
+                                                                    json_schema_extra=_mesh_extra(f.name)))
        for f in dataclasses.fields(MeshSpec) if f.name != "level"},
 )
 
 
-class FlowConfig(_Frozen):
-    """``flow:`` section — the flow around the blade (Vessaz et al. 2013, §3.2).
+class FlowConfig(Section):
+    """``flow:`` section: the flow around the blade (Vessaz et al. 2013, §3.2); water at 20 °C by default.
+    Forces per unit span (N/m) times ``span`` give the forces on the blade section (N)."""
 
-    speed: C0, uniform inlet velocity along +x, m/s (10). density: rho, kg/m³, and viscosity: mu, dynamic,
-    Pa s — water at 20 °C (998.2 and 1.002e-3). intensity: inlet turbulence intensity I (0.05, i.e. 5 %);
-    viscosity_ratio: inlet eddy-to-molecular viscosity ratio nu_t/nu (10); both only used by turbulence
-    models. span: the span depth of Eq. 23 ``C_L = F_Y / (rho C0²/2 · L · span)``, m; ``None`` (default)
-    means ``0.04 L`` (the paper's ``0.04 L²``), i.e. 4 mm for L = 0.1 m. Forces per unit span (N/m) times
-    the span give the forces on the blade section (N).
-    """
-
-    speed: float = Field(10.0, ge=1e-3, le=100.0, json_schema_extra={"unit": "m/s"},
-                         description="hydraulic machines' relative velocities stay below ~60 m/s (cavitation); "
-                         "below 1 mm/s a blade's flow is creeping flow")
-    density: float = Field(998.2, ge=0.1, le=2.0e4, json_schema_extra={"unit": "kg/m³"},
-                           description="from a gas at low pressure to mercury (13 546 kg/m³)")
-    viscosity: float = Field(1.002e-3, ge=1e-6, le=1.0e3, json_schema_extra={"unit": "Pa s"},
-                             description="a dynamic viscosity, from gases (~1e-5 Pa s) to heavy oils (~1e3 Pa s)")
-    intensity: float = Field(0.05, ge=0, le=1, description="a fraction: 0.05 is 5 %")
-    viscosity_ratio: float = Field(10.0, gt=0, le=1.0e4, description="nu_t / nu at the inlet: 1-100 in practice; "
-                                   "above 1e4 the inflow's eddy viscosity swamps the blade's boundary layer")
-    span: float | None = Field(None, gt=0, le=1.0e3, json_schema_extra={"unit": "m"},
-                               description="a multiplier of the forces per unit span")
+    speed: float = Field(10.0, ge=1e-3, le=100.0, description="C0, the uniform inlet velocity along +x, m/s",
+                         json_schema_extra={"unit": "m/s", "why": "hydraulic machines' relative velocities stay "
+                                            "below ~60 m/s (cavitation); below 1 mm/s a blade's flow is creeping flow"})
+    density: float = Field(998.2, ge=0.1, le=2.0e4, description="rho, the fluid's density, kg/m³",
+                           json_schema_extra={"unit": "kg/m³", "why": "from a gas at low pressure to mercury "
+                                              "(13 546 kg/m³)"})
+    viscosity: float = Field(1.002e-3, ge=1e-6, le=1.0e3, description="mu, the fluid's dynamic viscosity, Pa s",
+                             json_schema_extra={"unit": "Pa s", "why": "a dynamic viscosity, from gases (~1e-5 Pa s) "
+                                                "to heavy oils (~1e3 Pa s)"})
+    intensity: float = Field(0.05, ge=0, le=1, description="inlet turbulence intensity I (turbulence models "
+                             "only), a fraction: 0.05 is 5 %", json_schema_extra={"why": "a fraction: 0.05 is 5 %"})
+    viscosity_ratio: float = Field(10.0, gt=0, le=1.0e4, description="inlet eddy-to-molecular viscosity ratio "
+                                   "nu_t / nu (turbulence models only)",
+                                   json_schema_extra={"why": "nu_t / nu at the inlet: 1-100 in practice; above 1e4 "
+                                                      "the inflow's eddy viscosity swamps the blade's boundary layer"})
+    span: float | None = Field(None, gt=0, le=1.0e3, description="span depth of Eq. 23 C_L = F_Y / (rho C0²/2 L "
+                               "span), m; null: 0.04 L (the paper's 0.04 L², 4 mm for L = 0.1 m)",
+                               json_schema_extra={"unit": "m", "why": "a multiplier of the forces per unit span"})
 
     @property
     def kinematic_viscosity(self) -> float:
@@ -242,133 +299,88 @@ SETTINGS_NOT_CONFIGURED = {
     "blas_threads": "how a machine runs the solve, not what it computes (the results are the same); the "
                     "solver's default (1) is the fastest measured",
 }
-#: Bounds and choices of the configured settings; their types and defaults are read from
-#: :class:`solver.SimpleSettings` (one definition: the two cannot drift apart). The solver checks the
-#: choices again; here they make a bad value a configuration error that names the key.
-#: ``why``: the reason a bound is shown with (docs/errors.md lists them). Iterations cost ~6 µs per cell
-#: on the development machine (docs/benchmarks.md): 100 000 on the medium mesh are ~3 h.
-_RELATIVE = "a relative change: 1e-12 is below what double precision resolves in a sum of many cells; 1 is 100 %"
-_WINDOW = "iterations; a window of more than 10 000 is never filled by a solve of sensible length"
-SETTING_RULES: dict[str, dict[str, Any]] = {
-    "algorithm": {"choices": ("simple", "simplec")},
-    "alpha_u": {"gt": 0, "le": 1, "why": "an under-relaxation factor"},
-    "alpha_p": {"gt": 0, "le": 1, "why": "an under-relaxation factor"},
-    "startup_iterations": {"ge": 0, "le": 100_000, "why": "iterations at the start-up relaxation; 0: off"},
-    "startup_alpha_u": {"gt": 0, "le": 1, "why": "an under-relaxation factor"},
-    "startup_alpha_p": {"gt": 0, "le": 1, "why": "an under-relaxation factor"},
-    "startup_alpha_p_iterations": {"ge": 0, "le": 100_000, "why": "iterations at startup_alpha_p; None: "
-                                   "startup_iterations"},
-    "startup_ramp": {"ge": 0, "le": 100_000, "why": "the start-up's last iterations, rising to alpha_u; 0: a step"},
-    "convection": {"choices": ("linear_upwind", "upwind")},
-    "limiter": {"choices": ("venkatakrishnan", "venkatakrishnan_wang", "barth_jespersen", "none")},
-    "limiter_k": {"gt": 0, "le": 1000, "why": "the limiter's K: venkatakrishnan's eps² = (K h)³ depends on the units "
-                  "and the scale (the blades' default 100 still limits their boundary layers, h ~ 1e-6 m), "
-                  "10-80 for venkatakrishnan_wang"},
-    "limiter_iterations": {"ge": 0, "le": 100_000, "why": "iterations of the limited start-up; None: limited "
-                           "throughout"},
-    "max_iter": {"ge": 1, "le": 100_000, "why": "the blade solves converge in 1 000-3 000 iterations; 100 000 on "
-                 "the medium mesh are ~3 h"},
-    "tol": {"ge": 1e-12, "le": 1, "why": "a scaled residual; below 1e-12 it stalls at round-off"},
-    "monitor_tol": {"ge": 1e-12, "le": 1, "why": _RELATIVE},
-    "monitor_window": {"ge": 2, "le": 10_000, "why": _WINDOW},
-    "classify_window": {"ge": 8, "le": 10_000, "why": _WINDOW},
-    "classify_tol": {"ge": 1e-12, "le": 1, "why": _RELATIVE},
-    "stall_tol": {"ge": 1e-12, "le": 1, "why": "a scaled residual; below 1e-12 it stalls at round-off"},
-    "stop_window": {"ge": 2, "le": 10_000, "why": _WINDOW},
-    "stop_tol": {"ge": 1e-12, "le": 1, "why": _RELATIVE},
-    "early_periods": {"gt": 0, "le": 1000, "why": "oscillation periods spanned by each early-stop window; "
-                      "None: windows of classify_window"},
-    "early_skip": {"ge": 0, "le": 100_000, "why": "start-up iterations skipped before the early stop's two windows "
-                   "(at most one window); None: one window"},
-    "pressure_gradient": {"choices": ("least_squares", "green_gauss", "green_gauss_bounded", "green_gauss_linear")},
-    "face_velocity": {"choices": ("corrected", "bounded")},
-    "green_gauss_relaxation": {"gt": 0, "le": 1, "why": "an under-relaxation factor of the green_gauss pressure "
-                               "gradient's correction"},
-    "divergence_factor": {"gt": 1, "le": 1e12, "why": "a residual this many times its minimum is divergence; "
-                          "1e12 leaves no margin in double precision"},
-    "velocity_limit": {"gt": 0, "le": 1e8, "unit": "m/s", "why": "a cell velocity above it is divergence"},
+#: The registry that owns the choices of each text field of :class:`solver.SimpleSettings` (its keys are the
+#: choices; the solver looks the value up there).
+SETTING_CHOICES: dict[str, Mapping[str, Any]] = {
+    "algorithm": ALGORITHMS, "convection": CONVECTION_SCHEMES, "limiter": LIMITERS,
+    "pressure_gradient": PRESSURE_GRADIENTS, "face_velocity": FACE_VELOCITIES,
 }
+#: Keys of the ``solver:`` section that are fields of :class:`solver.turbulence.SST`: ``{key: (SST field, the
+#: registry of its choices)}``; used when ``model`` is ``sst``.
+SST_KEYS: dict[str, tuple[str, Mapping[str, Any]]] = {
+    "wall_treatment": ("wall_treatment", WALL_TREATMENTS),
+    "omega_production": ("omega_production", OMEGA_PRODUCTIONS),
+    "omega_wall_flux": ("omega_wall_flux", OMEGA_WALL_FLUXES),
+    "sst_velocity_gradient": ("velocity_gradient", VELOCITY_GRADIENTS),
+}
+_RULE_KEYS = ("ge", "gt", "le", "lt", "why", "unit")
 _SCALARS = (bool, int, float, str)
 
 
-#: The blade evaluations' own defaults where they differ from :class:`solver.SimpleSettings`' (the solver's
-#: defaults for any flow, its laminar verification cases included). The bounded Green–Gauss pressure gradient
-#: brings the blades' lift and the NACA 0012 near stall to OpenFOAM's on the same meshes, and alpha_p 0.7 keeps
-#: table5 and most of the sweeps' blades converged with it; on the manufactured solution's uniformly refined
-#: triangles it costs velocity order (1.98 -> 1.68 at the medium level), so it is not the solver's default.
-#: alpha_p applies from iteration 151 (the first 150 at startup_alpha_p, 1): from iteration 51 it slowed the
-#: coarse blades' lift (bench_openfoam 4 of 6 cases within OpenFOAM's time, 6 of 6 from 151) for one more
-#: converged blade in 100 (docs/validation-blades.md, docs/validation-naca0012-sessions.md, docs/performance.md,
-#: session 12).
-#: The bounded face velocity of the mass flux brings random18's and table5's C_max within 1 % of OpenFOAM's on the
-#: same medium meshes (random16's to -1.03 %), for lift further from OpenFOAM's on coarse meshes (session 13).
-#: The momentum convection limiter's K is 100, not the solver's 5: Venkatakrishnan's eps² = (K h)³ is dimensional,
-#: and on a 0.09 m blade at 10 m/s K = 5 limits ~260 times harder (in eps² / U²) than on the 1 m, 1 m/s NACA 0012;
-#: in the free shear layers of a blade separated from its leading edge (table5) that limiting mixed the layers
-#: faster than OpenFOAM's unlimited linearUpwind, lowering the base pressure under the blade (lift +1.67 % of
-#: OpenFOAM's; with K = 100 +0.90 %). The boundary layers' cells (h ~ 1e-6 m) stay limited (session 14).
-BLADE_SETTINGS: dict[str, Any] = {"pressure_gradient": "green_gauss_bounded", "face_velocity": "bounded",
-                                  "alpha_p": 0.7, "startup_alpha_p_iterations": 150, "limiter_k": 100.0}
+def _setting_rules() -> dict[str, dict[str, Any]]:
+    """Bounds (``ge``/``gt``/``le``, ``why``, ``unit``: from each field's metadata) and ``choices`` (from
+    :data:`SETTING_CHOICES`) of the configured :class:`solver.SimpleSettings` fields."""
+    rules = {}
+    for f in dataclasses.fields(SimpleSettings):
+        rule = {k: f.metadata[k] for k in _RULE_KEYS if k in f.metadata}
+        if f.name in SETTING_CHOICES:
+            rule["choices"] = tuple(SETTING_CHOICES[f.name])
+        if rule and f.name not in SETTINGS_NOT_CONFIGURED:
+            rules[f.name] = rule
+    return rules
+
+
+#: Bounds and choices of the configured settings, read from :class:`solver.SimpleSettings` and the solver's
+#: registries (one definition: the two cannot drift apart). The solver checks the choices again; here they
+#: make a bad value a configuration error that names the key. ``why``: the reason a bound is shown with.
+SETTING_RULES: dict[str, dict[str, Any]] = _setting_rules()
+
+
+def _choice(registry: Mapping[str, Any]) -> Any:
+    return Literal[tuple(registry)]
 
 
 def _setting_fields() -> dict[str, tuple[Any, Any]]:
     """The ``solver:`` keys made from :class:`solver.SimpleSettings`: ``{name: (annotation, Field)}`` for
-    every field with a scalar (or optional scalar) type and a plain default, bar
-    :data:`SETTINGS_NOT_CONFIGURED`."""
+    every field with a scalar (or optional scalar) type, bar :data:`SETTINGS_NOT_CONFIGURED`; the default is
+    :meth:`solver.SimpleSettings.for_blades`', the description the field's own."""
     hints = get_type_hints(SimpleSettings)
+    blades = SimpleSettings.for_blades()
     out = {}
     for f in dataclasses.fields(SimpleSettings):
         hint = hints[f.name]
         optional = type(None) in get_args(hint)
         base = next(a for a in get_args(hint) if a is not type(None)) if optional else hint
-        if f.name in SETTINGS_NOT_CONFIGURED or base not in _SCALARS or f.default is dataclasses.MISSING:
+        if f.name in SETTINGS_NOT_CONFIGURED or base not in _SCALARS:
             continue
         rules = dict(SETTING_RULES.get(f.name, {}))
         choices = rules.pop("choices", None)
         why, unit = rules.pop("why", None), rules.pop("unit", None)
         annotation = Literal[choices] if choices else base
-        extra = {"unit": unit} if unit else None
-        default = BLADE_SETTINGS.get(f.name, f.default)
+        extra = {k: v for k, v in (("unit", unit), ("why", why)) if v}
         out[f.name] = (annotation | None if optional else annotation,
-                       Field(default, description=why, json_schema_extra=extra, **rules))
+                       Field(getattr(blades, f.name), description=f.metadata["doc"], json_schema_extra=extra or None,
+                             **rules))
     return out
 
 
-class _SolverBase(_Frozen):
-    """``solver:`` section — the flow model and the steady solver (the mesh level is in ``mesh:``).
+def _sst_fields() -> dict[str, tuple[Any, Any]]:
+    """The ``solver:`` keys of :data:`SST_KEYS`: choices from the SST's registries, default
+    :meth:`solver.turbulence.SST.for_blades`', the description the SST field's own."""
+    blades = SST.for_blades()
+    return {key: (_choice(registry), Field(getattr(blades, name), description=setting_doc(SST, name)))
+            for key, (name, registry) in SST_KEYS.items()}
 
-    Keys of the section alone: model: ``sst`` (k-ω SST, the paper's model) or ``laminar``.
-    wall_treatment: SST wall treatment, ``automatic`` (wall functions blended with the low-Re
-    formulation by y+) or ``low_re`` (resolved to the wall, y+ ~ 1). omega_production, omega_wall_flux:
-    the SST options of the same names (:class:`solver.turbulence.SST`: ``limited`` omega production, the
-    blades' default since session 14 and OpenFOAM's ``kOmegaSST`` form, or ``unlimited``, the SST's own
-    default: with ``limited`` every one of the issue-15 random blades has lift and C_max within 1 % of
-    OpenFOAM's on the same medium mesh, and the NACA 0012's coarse C_L,max within 1 %, docs/validation.md;
-    ``analytic`` or ``two_point`` omega flux next to the wall cells). sst_velocity_gradient: the
-    SST option ``velocity_gradient``, the velocity gradient of the turbulence step's production terms
-    (``green_gauss_bounded``, the default: Green–Gauss on reconstructed faces, each kept within its two
-    cells' values, nearer OpenFOAM on the blades, docs/validation-blades.md, session 11; ``green_gauss``,
-    unbounded; or ``least_squares``, the momentum step's own gradient, the default before session 11).
-    initial: initial velocity field,
-    ``freestream`` (uniform ``(C0, 0)``, the default), ``potential`` (the potential flow around the blade,
-    :func:`solver.potential_start`: fewer start-up divergences in the channel at coarse, docs/benchmarks.md)
-    or ``rest`` (zero; diverged at once at Re = 1e6).
 
-    Every other key is a field of :class:`solver.SimpleSettings` (its meaning, unit and default are
-    documented there; ``docs/evaluation.md`` lists them): algorithm, alpha_u, alpha_p, startup_iterations,
-    startup_alpha_u, startup_alpha_p, startup_alpha_p_iterations, startup_ramp, convection,
-    limiter, limiter_k, max_iter, tol, monitor_tol, monitor_window, classify_window, classify_tol,
-    stall_tol, stop_window, stop_tol, early_classify, early_periods, early_skip, pressure_gradient,
-    face_velocity, green_gauss_relaxation,
-    divergence_factor, velocity_limit.
-    """
+class _SolverBase(Section):
+    """``solver:`` section: the flow model, its initial field and the steady solver's settings (the mesh
+    level is in ``mesh:``). Generated from :class:`solver.SimpleSettings` and :class:`solver.turbulence.SST`:
+    their fields' descriptions, their blade defaults (``for_blades()``) and the solver's registries of
+    choices; ``model`` and ``initial`` are the section's own keys (their choices from
+    :data:`solver.turbulence.MODELS` and :data:`solver.warmstart.INITIAL_FIELDS`)."""
 
-    model: Literal["sst", "laminar"] = "sst"
-    wall_treatment: Literal["automatic", "low_re"] = "automatic"
-    omega_production: Literal["unlimited", "limited"] = "limited"
-    omega_wall_flux: Literal["analytic", "two_point"] = "analytic"
-    sst_velocity_gradient: Literal["least_squares", "green_gauss", "green_gauss_bounded"] = "green_gauss_bounded"
-    initial: Literal["freestream", "rest", "potential"] = "freestream"
+    model: _choice(MODELS) = Field("sst", description="flow model, solver.turbulence.MODELS: sst (Menter k-omega "
+                                   "SST-2003, the paper's model) or laminar")
 
     @field_validator("*", mode="before")
     @classmethod
@@ -379,6 +391,11 @@ class _SolverBase(_Frozen):
         """The keys that are :class:`solver.SimpleSettings` fields, as its keyword arguments."""
         return {name: getattr(self, name) for name in SETTING_KEYS}
 
+    def sst_settings(self) -> dict[str, Any]:
+        """The keys that are :class:`solver.turbulence.SST` fields, as its keyword arguments
+        (``SST.for_blades(**config.solver.sst_settings())`` is the section's model when ``model`` is sst)."""
+        return {name: getattr(self, key) for key, (name, _) in SST_KEYS.items()}
+
 
 _SETTING_FIELDS = _setting_fields()
 #: The keys of the ``solver:`` section that are :class:`solver.SimpleSettings` fields.
@@ -387,17 +404,25 @@ SolverConfig = create_model(
     "SolverConfig",
     __base__=_SolverBase,
     __doc__=_SolverBase.__doc__,
+    **_sst_fields(),
+    initial=(_choice(INITIAL_FIELDS), Field(
+        "freestream", description="initial field, solver.warmstart.INITIAL_FIELDS: freestream (uniform (C0, 0)), "
+        "rest (zero velocity) or potential (the potential flow around the blade) "
+        "(docs/decisions/0016-initial-field.md)")),
     **_SETTING_FIELDS,
 )
 
 
-class Config(_Frozen):
+class Config(Section):
     """A whole configuration file."""
 
-    blade: BladeConfig = BladeConfig()
-    mesh: MeshConfig = MeshConfig()
-    flow: FlowConfig = FlowConfig()
-    solver: SolverConfig = SolverConfig()
+    blade: BladeConfig = Field(BladeConfig(), description="the blade family and one blade of it, or the "
+                               "optimisation space")
+    mesh: MeshConfig = Field(MeshConfig(), description="the mesh: resolution level and meshing.MeshSpec overrides")
+    flow: FlowConfig = Field(FlowConfig(), description="the flow around the blade: inlet speed, fluid, inlet "
+                             "turbulence, span")
+    solver: SolverConfig = Field(SolverConfig(), description="the flow model, its initial field and the steady "
+                                 "solver's settings")
 
     def mesh_spec(self) -> MeshSpec:
         """The mesh specification: the ``mesh:`` level's preset with the keys the section sets, and
@@ -606,9 +631,12 @@ def explain(exc: ValidationError, schema: type[BaseModel], source: Source | None
         error = (err.get("ctx") or {}).get("error")
         loc = (*loc, *getattr(error, "path", ()))             # where below the field (e.g. a boolean)
         msg = err["msg"].removeprefix("Value error, ")
-        named = re.search(r"unknown key '([^']+)'", msg) if err["type"] == "value_error" else None
-        if named:                                             # a section that checks its own keys
-            loc = (*loc, named.group(1))
+        if isinstance(error, UnknownKeys):                    # every section's own check of its keys
+            for key in error.keys:
+                at = f"{source.where((*loc, key))}: " if source is not None else ""
+                where = ".".join(str(p) for p in (*loc, key))
+                lines.append(f"{at}unknown key '{where}'; allowed: {', '.join(error.allowed)}")
+            continue
         where = ".".join(str(p) for p in loc)
         at = f"{source.where(loc)}: " if source is not None else ""
         if err["type"] == "extra_forbidden":
@@ -632,7 +660,8 @@ _RANGE_ERRORS = ("greater_than", "greater_than_equal", "less_than", "less_than_e
 
 def range_error(err: Mapping[str, Any], loc: Sequence[Any], schema: type[BaseModel]) -> str | None:
     """``'KEY' = VALUE is outside [LOW, HIGH]: WHY`` for a pydantic error ``err`` of a value out of its
-    bounds at ``loc`` (the field's ``ge``/``gt``/``le``/``lt`` and its description, the why), else None."""
+    bounds at ``loc`` (the field's ``ge``/``gt``/``le``/``lt``, and the ``why`` of its ``json_schema_extra``),
+    else None."""
     if err["type"] not in _RANGE_ERRORS:
         return None
     info = _field_at(schema, loc)
@@ -646,7 +675,7 @@ def range_error(err: Mapping[str, Any], loc: Sequence[Any], schema: type[BaseMod
                 lower, upper = (bound, upper) if name[0] == "g" else (lower, bound)
     extra = info.json_schema_extra if isinstance(info.json_schema_extra, dict) else {}
     unit = f" {extra['unit']}" if extra.get("unit") else ""
-    why = f": {info.description}" if info.description else ""
+    why = f": {extra['why']}" if extra.get("why") else ""
     return f"'{'.'.join(str(p) for p in loc)}' = {_number(err['input'])}{unit} is outside {lower}, {upper}{unit}{why}"
 
 

@@ -204,10 +204,10 @@ def _no_limiter(mesh, phi, phi_b, grad, k):
 #: Limiters by name: ``f(mesh, phi, phi_b, grad, k) -> psi`` in [0, 1], ``(nc,)`` for a scalar ``phi (nc,)``,
 #: ``(nc, m)`` per component for ``phi (nc, m)`` (``grad (nc, m, 2)``).
 LIMITERS: dict[str, Callable] = {
-    "none": _no_limiter,
-    "barth_jespersen": _barth_jespersen,
     "venkatakrishnan": _venkatakrishnan,
     "venkatakrishnan_wang": _venkatakrishnan_wang,
+    "barth_jespersen": _barth_jespersen,
+    "none": _no_limiter,
 }
 
 

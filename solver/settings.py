@@ -1,209 +1,173 @@
 """Settings of the steady pressure-based solver: :class:`SimpleSettings`, the one definition of every option.
 
-The optimiser's ``solver:`` configuration section is generated from :func:`dataclasses.fields` of
-:class:`SimpleSettings`, so a default changed here changes the blade evaluations too.
+Each field carries its one description in ``metadata``: ``doc`` (meaning and unit), and for a number its
+documented range (``ge``/``gt``/``le``, with ``why``, the reason for the bounds) — read by
+:func:`setting_doc` and by the optimiser's ``solver:`` configuration section, which is generated from these
+fields and from :meth:`SimpleSettings.for_blades` (the blade evaluations' defaults). A non-default choice's
+evidence is in its decision record under ``docs/decisions/``.
 """
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
+from typing import Any, Self
 
 from .linalg import SolverSettings
 
-#: Options of the default pressure solver (:func:`solver.linalg._amg_cg`, relative tolerance 0.05): one
-#: Ruge–Stüben set-up per steady solve, reused as built for the first 10 pressure solves (the start-up
-#: transient, as before), then kept for its interpolation only while every level's operator is re-formed from
-#: each iteration's p' matrix (``galerkin``, :class:`solver.amg.GalerkinHierarchy`, 0.7 ms per refresh); a new
-#: set-up after 1 000 solves or after one that took more than 8 CG iterations. Benchmark blade at medium
-#: (docs/performance.md, session 5): one set-up instead of 31 (0.70 -> 0.06 s CPU), 3.2 instead of 3.3 CG
-#: iterations per solve after the first 10, the AMG part of an iteration 8.8 -> 7.6 ms, the same 310 outer
-#: iterations. Refreshing from the first solve made that blade's start-up transient slower (320).
+#: Options of the default pressure solver, AMG-preconditioned CG (:func:`solver.linalg._amg_cg`, relative
+#: tolerance 0.05): one Ruge–Stüben set-up per steady solve, used as built for the first ``refresh_after``
+#: pressure solves, then kept for its interpolation while every level's operator is re-formed from each
+#: iteration's p' matrix (``galerkin``, :class:`solver.amg.GalerkinHierarchy`); a new set-up after
+#: ``rebuild_every`` solves or after one that took more than ``rebuild_above`` CG iterations.
+#: docs/decisions/0012-pressure-amg.md.
 PRESSURE_AMG = {"galerkin": True, "rebuild_every": 1000, "rebuild_above": 8, "refresh_after": 10}
+
+_RELAXATION = "an under-relaxation factor"
+_ITERATIONS = "iterations; 100 000 on the medium mesh are ~3 h"
+_RELATIVE = "a relative change: 1e-12 is below what double precision resolves in a sum of many cells; 1 is 100 %"
+_WINDOW = "iterations; a window of more than 10 000 is never filled by a solve of sensible length"
+_RESIDUAL = "a scaled residual; below 1e-12 it stalls at round-off"
+
+
+def _opt(default: Any = dataclasses.MISSING, doc: str = "", *, factory: Any = dataclasses.MISSING,
+         **rules: Any) -> Any:
+    """A field with its description ``doc`` and range ``rules`` (``ge``, ``gt``, ``le``, ``why``, ``unit``)."""
+    return field(default=default, default_factory=factory, metadata={"doc": doc, **rules})
+
+
+def setting_doc(cls: type, name: str) -> str:
+    """The description of field ``name`` of the settings dataclass ``cls`` (its ``metadata["doc"]``)."""
+    return next(f for f in dataclasses.fields(cls) if f.name == name).metadata.get("doc", "")
 
 
 @dataclass(frozen=True)
 class SimpleSettings:
-    """Settings of the steady pressure-based solver (every option has a default).
+    """Settings of the steady pressure-based solver; every option has a default (each field's
+    ``metadata["doc"]`` says what it does, its unit and range).
 
-    The defaults are those of the blade evaluations (Re ~ 1e6, k-omega SST, first cell at y+ ~ 1), except
-    ``pressure_gradient``, ``face_velocity``, ``alpha_p``, ``startup_alpha_p_iterations`` and ``limiter_k``, which
-    the blade evaluations set (:data:`optimizer.config.BLADE_SETTINGS`):
-
-    algorithm: ``"simplec"`` (default) or ``"simple"`` (:data:`solver.simple.ALGORITHMS`).
-    alpha_u, alpha_p: momentum and pressure under-relaxation; ``alpha_p`` None means 1 (no pressure
-        relaxation, the SIMPLEC choice; :attr:`pressure_relaxation`). Defaults SIMPLEC, 0.95, None (1); the
-        blade evaluations set 0.7 (from iteration 151, ``startup_alpha_p_iterations``) with their Green–Gauss pressure
-        gradient (:data:`optimizer.config.BLADE_SETTINGS`): with it the paper's table5 blade has no stable
-        fixed point at alpha_p 1 (a limit cycle of +-6 % in lift, where OpenFOAM converges); 0.7 converges
-        it from the free stream in 350-370 iterations (0.8: 430, 0.85: 720) and gives the most converged
-        blades of the two robustness sweeps (from iteration 151: medium 34 / 50, coarse channel 45 / 50, for 8 %
-        and 16 % more iterations; 0.8 from iteration 51: 29 and 43; alpha_p 1 with least squares: 28 and 44)
-        (docs/validation-blades.md, session 12).
-        With the bounded SIMPLEC coefficient (:func:`solver.simple.simplec_coefficient`) the benchmark
-        blade at medium (16 641 cells) has its lift within 0.5 % / 0.1 % of the final value after 215 /
-        257 iterations at alpha_u 0.95, 265 / 352 at 0.9 (OpenFOAM's simpleFoam value on the same mesh),
-        793 / > 1 000 with SIMPLE 0.7/0.3 (the default before issue 13); 0.97 and 0.98 gain nothing more
-        on the lift and converge the residuals more slowly (stops at 828 and 1 289). The 50 random blades
-        of ``bench/bench_robustness.py`` at medium keep their convergence classes at 0.95
-        (docs/performance.md, "Session 3"). Unbounded, SIMPLEC diverged within 3 iterations there. At low
-        Re (laminar tests, the cavity and cylinder cases) SIMPLEC with alpha_u = 0.8-0.98 and alpha_p = 1
-        is faster still.
-    startup_iterations, startup_alpha_u: the first ``startup_iterations`` iterations of a solve run with
-        ``min(alpha_u, startup_alpha_u)`` (defaults 50 and 0.7; 0 iterations: off). From the free stream in
-        the campaigns' channel at ``coarse``, 3 of the 50 random blades of ``bench/bench_robustness.py``
-        diverged at the leading edge within 10-48 iterations at 0.95; with 50 iterations at 0.7 all 50
-        converge or oscillate (43 / 7 with the wall-spacing cap of :mod:`meshing.hybrid`), the converged
-        forces unchanged to 0.1 % (docs/benchmarks.md, "Start-up"). It does nothing at
-        ``alpha_u <= startup_alpha_u`` (the NACA 0012 case's SIMPLE 0.7).
-    startup_alpha_p: with SIMPLEC, the pressure relaxation of the start-up's iterations; None: ``alpha_p``
-        throughout. SIMPLE always runs at its ``alpha_p``, which it needs from the first iteration (0.3 with
-        alpha_u 0.7). Default 1, SIMPLEC's own value (no pressure relaxation while the start-up's ``alpha_u`` is
-        low): with ``alpha_p`` 0.7 from the first iteration one of the 50 random blades of the campaigns'
-        coarse channel diverged at its leading edge within 9 iterations; with 1 there and 0.7 after it, it
-        converges (docs/validation-blades.md, session 12).
-    startup_alpha_p_iterations: the iterations run at ``startup_alpha_p`` (None, the default: the start-up's
-        ``startup_iterations``). The blade evaluations run 150: most coarse blades' lift is within 0.1 % of its
-        final value by then, which alpha_p 0.7 from iteration 51 delayed by up to 20 % (docs/performance.md,
-        session 12).
-    startup_ramp: the last ``startup_ramp`` iterations of the start-up (at most all of them) rise linearly
-        from ``min(alpha_u, startup_alpha_u)`` towards ``alpha_u`` instead of the step at its end (iteration
-        ``n - r + j`` of a start-up of ``n`` with a ramp of ``r`` at ``a0 + (alpha_u - a0) j / (r + 1)``,
-        :func:`solver.simple.iteration_alpha_u`); 0: the step; no start-up, no ramp. Default 50 (the whole
-        start-up): lift within 0.1 % in fewer iterations on all six ``bench_openfoam`` cases (random 0 medium
-        127 -> 104) and on most blades of both robustness sweeps, the classes unchanged, 4-7 % fewer
-        iterations over each sweep (docs/performance.md, "A ramped end of the start-up").
-    convection: ``"linear_upwind"`` (second order, deferred correction) or ``"upwind"``
-        (:data:`solver.assembly.CONVECTION_SCHEMES`).
-    limiter, limiter_k: gradient limiter for convection (:data:`solver.gradient.LIMITERS`). Venkatakrishnan's
-        ``eps² = (K h)³`` is dimensional (SI: h in m), so a K limits differently at another scale and speed;
-        the blade evaluations use K = 100 (docs/validation-blades.md, session 14).
-    limiter_iterations: the limiter acts in the first ``limiter_iterations`` iterations only, the unlimited
-        linear-upwind reconstruction (OpenFOAM's ``linearUpwind``) after them; None (default): throughout.
-        From a potential or uniform start the unlimited scheme diverges within a few iterations (the slip
-        velocity meeting the no-slip wall), while on a settled boundary layer the limiter clips the young
-        layer near the leading edge and costs lift near stall (docs/validation-naca0012-sessions.md,
-        "Findings (session 3)").
-        The stop tests wait until the limiter is off, so the solution returned is the unlimited one.
-    max_iter: iteration cap. tol: scaled-residual tolerance for u, v and continuity.
-    monitor_tol, monitor_window: integral quantities must vary less than ``monitor_tol`` (relative)
-        over the last ``monitor_window`` iterations.
-    monitor_groups: boundary groups whose forces are monitored.
-    classify_window, classify_tol: a solve that reaches ``max_iter`` is classified from its monitors over
-        the last ``classify_window`` iterations (:func:`solver.convergence.classify`): ``converged`` if
-        they are stationary within ``classify_tol`` (relative; the issue's "lift and C_max stationary to
-        0.1 % over a window"), ``oscillating`` (bounded; use the window means in
-        ``FlowResults.classification``) or ``not_converged`` (drifting).
-    stall_tol, stop_window, stop_tol: a solve also stops as ``converged`` once every scaled residual is
-        below ``stall_tol`` and every monitor is within ``stop_tol`` (relative, default 1e-3) of its
-        converged value, judged over two windows of ``stop_window`` (50) iterations: spread within
-        ``stop_tol`` and the geometric decay of its trend extrapolated (:func:`solver.monitors.settled`).
-        RANS residuals often stall between 1e-6 and 1e-5 (limiter chatter) while forces and C_max have
-        settled. Default 1e-4: a guard against monitors that pause while the field is still far from
-        converged (the residuals of the first iterations are 1e-1-1e-3), not a second accuracy test — the
-        monitors' own test decides (on the benchmark blade at medium, 1e-5 held the stop 60 iterations after
-        the objectives had settled, for no change in them beyond 1e-3). None: off (run to ``tol`` or
-        ``max_iter``).
-    stop_monitors: the monitors that stop test waits for (names as in ``FlowResults.monitors``:
-        ``"c_max"``, ``"fx:<group>"``, ``"fy:<group>"``); empty (the default): all of them. The blade
-        evaluation waits for its objectives only, F_Y and C_max (:func:`optimizer.pipeline.simple_settings`):
-        F_X, reported but not optimised, settles last (on the benchmark blade at medium, 70 iterations after
-        the lift) and is then within a few 1e-3 of its converged value. The classification and the
-        ``tol`` test still use every monitor.
-    early_classify: stop a solve whose oscillation or drift is established over two classification
-        windows (after a start-up allowance, ``early_skip``; checked every 25 iterations) with the class and
-        figures it would get at ``max_iter`` (:func:`solver.monitors.established`); False: run such solves
-        to ``max_iter``.
-    early_periods: the two windows of that early stop span this many periods of the oscillation (the
-        longest of the monitors' periods over the last ``classify_window`` iterations), between
-        ``classify_window / 2`` and ``classify_window`` iterations, so that a short-period oscillation is
-        recognised from ``3 x`` that window on rather than from ``3 classify_window``
-        (:func:`solver.monitors.early_window`). Default 8: the 24 oscillating blades of
-        ``bench/bench_robustness.py`` at medium stop after 637.5 iterations by the median instead of 725
-        (1.96x the converged median), with the same classes and window means within half an amplitude of
-        those at the cap; 6 stopped a converged blade (random blade 20) early as oscillating
-        (docs/performance.md, "Unsettled blades (session 6)"). None: windows of ``classify_window``.
-    early_skip: the start-up skipped before those two windows: ``min(early_skip, w)`` iterations for
-        windows of ``w``, so the first check comes at ``2 w + min(early_skip, w)`` (None: a whole window,
-        ``3 w``, session 6). Default 100: the gentle start-up (``startup_iterations``) and the transient after
-        it are over by then on the random blades at medium (lift within 0.5 % of its final value after
-        50-210 iterations); replayed on the 22 unsettled blades' 2 000-iteration histories, 100-175 all give
-        the same stops, the same classes, and window means within half an amplitude of the cap's on 20 of 22
-        (19 with a whole window) (docs/performance.md, "The early stop's start-up allowance (session 9)").
-    divergence_factor: a residual above 1 and this many times its running minimum means divergence.
-    velocity_limit: a cell velocity component above this (m/s) means divergence.
-    pressure_gradient: gradient of p in the momentum source and in the Rhie–Chow interpolation:
-        ``"least_squares"``, ``"green_gauss"`` (skewness-corrected face values), ``"green_gauss_bounded"`` (the
-        same, each face value kept within its two cells' values) or ``"green_gauss_linear"`` (plain linear face
-        values, OpenFOAM's ``Gauss linear``) (:data:`solver.simple.PRESSURE_GRADIENTS`). Default
-        ``"least_squares"``: every Green–Gauss form lowers the manufactured solution's velocity order on
-        uniformly refined triangles (medium level 1.98 -> 1.68-1.70, below the 1.8 asked). The blade
-        evaluations and the NACA 0012 case use ``"green_gauss_bounded"`` (session 12): against OpenFOAM on the
-        same meshes the random blades' lift within 1.5 % on 10 of 10 (least squares 9), table4 out of its
-        leading-edge stall, and the NACA 0012 coarse C-mesh at 16 deg -1.6 % (-5.4 %); the TMR references met
-        on every level. The bound matters at a G0 blade's corner nose, where the unbounded reconstruction put
-        C_max 58 % above OpenFOAM's (docs/validation-blades.md and docs/validation-naca0012-sessions.md, session 12).
-    face_velocity: the velocity that carries the Rhie–Chow mass flux through each face
-        (:func:`solver.pressure.face_velocity`): ``"corrected"``, reconstructed from both cells with their
-        gradients (exact for linear fields on skewed meshes), or ``"bounded"``, the same with each
-        component kept within its two cells' values. Default ``"corrected"``; the blade evaluations and the
-        NACA 0012 case use ``"bounded"`` (session 13): at the trailing edge of the C-mesh the boundary-layer
-        cells' gradients extrapolated to the faces they share with the wake's overshoot and remove the
-        trailing-edge loading (the coarse lift at 2-8 deg +1.1 ... +1.75 % above OpenFOAM's on the same mesh,
-        bounded +0.8 ... +1.0 %), and on the medium blades it halves table5's C_max gap (-1.21 -> -0.58 %)
-        and narrows random16's and random18's (-1.27 -> -1.03 %, -1.29 -> -0.89 %); the robustness sweeps
-        keep every class. On coarse blade meshes it moves the lift 0.2-1.9 % up, away from OpenFOAM's on most.
-        Not the solver's default: the DFG cylinder's coarse lift error becomes 0.00428, above its 0.004
-        (docs/validation-naca0012-sessions.md, docs/validation-blades.md, session 13).
-    green_gauss_relaxation: under-relaxation, between iterations, of the ``green_gauss`` pressure gradient's
-        correction (its difference from ``green_gauss_linear``: the face values' reconstruction terms), in
-        (0, 1]; 1: none. The converged solution does not depend on it. Why: the reconstruction brings the
-        neighbours' pressure gradients into each face value; iterated explicitly it let table5's nose leave
-        OpenFOAM's converged solution into a limit cycle (F_Y +-5.8 %), relaxed by 0.1-0.3 it converges there
-        (docs/validation-blades.md, session 10).
-    blas_threads: BLAS threads while iterating (via threadpoolctl when installed; None: leave as is).
-        The per-iteration work is many small vector operations, where BLAS threads only contend
-        (measured 5x slower with default OpenBLAS threading on a busy 2-core machine).
-    momentum_solver, pressure_solver: linear solvers of the momentum and pressure-correction systems. The
-        pressure default: CG preconditioned by AMG with refreshed Galerkin operators (:data:`PRESSURE_AMG`) to
-        a relative residual of 0.05 (0.1 diverges on the coarse benchmark blade within 4 iterations).
+    The defaults suit any flow, the laminar verification cases included; :meth:`for_blades` gives the blade
+    evaluations' (Re ~ 1e6, k-omega SST, first cell at y+ ~ 1), which differ in ``pressure_gradient``,
+    ``face_velocity``, ``alpha_p``, ``startup_alpha_p_iterations`` and ``limiter_k``.
     """
 
-    algorithm: str = "simplec"
-    alpha_u: float = 0.95
-    alpha_p: float | None = None
-    startup_iterations: int = 50
-    startup_alpha_u: float = 0.7
-    startup_alpha_p: float | None = 1.0
-    startup_alpha_p_iterations: int | None = None
-    startup_ramp: int = 50
-    convection: str = "linear_upwind"
-    limiter: str = "venkatakrishnan"
-    limiter_k: float = 5.0
-    limiter_iterations: int | None = None
-    max_iter: int = 2000
-    tol: float = 1e-6
-    monitor_tol: float = 1e-5
-    monitor_window: int = 20
-    monitor_groups: tuple[str, ...] = ()
-    classify_window: int = 200
-    classify_tol: float = 1e-3
-    stall_tol: float | None = 1e-4
-    stop_window: int = 50
-    stop_tol: float = 1e-3
-    stop_monitors: tuple[str, ...] = ()
-    early_classify: bool = True
-    early_periods: float | None = 8.0
-    early_skip: int | None = 100
-    pressure_gradient: str = "least_squares"
-    face_velocity: str = "corrected"
-    green_gauss_relaxation: float = 1.0
-    blas_threads: int | None = 1
-    divergence_factor: float = 1e5
-    velocity_limit: float = 1e4
-    momentum_solver: SolverSettings = field(default_factory=lambda: SolverSettings("gauss_seidel", 0.1, 8))
-    pressure_solver: SolverSettings = field(default_factory=lambda: SolverSettings("amg", 0.05, 50, dict(PRESSURE_AMG)))
+    algorithm: str = _opt("simplec", "pressure-velocity coupling, solver.simple.ALGORITHMS: simplec (bounded "
+                          "SIMPLEC coefficient, docs/decisions/0010-simplec-alpha-u.md) or simple")
+    alpha_u: float = _opt(0.95, "momentum under-relaxation factor, in (0, 1] "
+                          "(docs/decisions/0010-simplec-alpha-u.md)", gt=0, le=1, why=_RELAXATION)
+    alpha_p: float | None = _opt(None, "pressure under-relaxation factor, in (0, 1]; null: 1, no pressure "
+                                 "relaxation, SIMPLEC's own value (docs/decisions/0001-blade-pressure-gradient.md)",
+                                 gt=0, le=1, why=_RELAXATION)
+    startup_iterations: int = _opt(50, "iterations at the start-up relaxation min(alpha_u, startup_alpha_u); 0: "
+                                   "no start-up (docs/decisions/0011-start-up-relaxation.md)",
+                                   ge=0, le=100_000, why="iterations at the start-up relaxation; 0: off")
+    startup_alpha_u: float = _opt(0.7, "momentum under-relaxation of the start-up, in (0, 1]; does nothing at "
+                                  "alpha_u <= startup_alpha_u", gt=0, le=1, why=_RELAXATION)
+    startup_alpha_p: float | None = _opt(1.0, "SIMPLEC's pressure relaxation during startup_alpha_p_iterations, in "
+                                         "(0, 1] (SIMPLE always runs at alpha_p); null: alpha_p throughout "
+                                         "(docs/decisions/0001-blade-pressure-gradient.md)",
+                                         gt=0, le=1, why=_RELAXATION)
+    startup_alpha_p_iterations: int | None = _opt(
+        None, "iterations run at startup_alpha_p; null: startup_iterations "
+        "(docs/decisions/0001-blade-pressure-gradient.md)",
+        ge=0, le=100_000, why="iterations at startup_alpha_p; None: startup_iterations")
+    startup_ramp: int = _opt(50, "the start-up's last iterations (at most all of them), in which the momentum "
+                             "relaxation rises linearly to alpha_u (solver.simple.iteration_alpha_u); 0: a step "
+                             "(docs/decisions/0011-start-up-relaxation.md)", ge=0, le=100_000,
+                             why="the start-up's last iterations, rising to alpha_u; 0: a step")
+    convection: str = _opt("linear_upwind", "momentum convection scheme, solver.assembly.CONVECTION_SCHEMES: "
+                           "linear_upwind (second order, deferred correction, limited gradient) or upwind")
+    limiter: str = _opt("venkatakrishnan", "gradient limiter of linear_upwind convection, "
+                        "solver.gradient.LIMITERS")
+    limiter_k: float = _opt(5.0, "the limiter's K, in (0, 1000]: Venkatakrishnan's eps² = (K h)³ with h in m, "
+                            "so a K limits differently at another scale and speed "
+                            "(docs/decisions/0003-limiter-k-for-blades.md)", gt=0, le=1000,
+                            why="the limiter's K: venkatakrishnan's eps² = (K h)³ depends on the units and the "
+                            "scale (the blades' default 100 still limits their boundary layers, h ~ 1e-6 m), "
+                            "10-80 for venkatakrishnan_wang")
+    limiter_iterations: int | None = _opt(None, "the limiter acts in the first limiter_iterations iterations only, "
+                                          "the unlimited linear-upwind reconstruction after them; null: throughout "
+                                          "(docs/decisions/0007-limiter-iterations.md)", ge=0, le=100_000,
+                                          why="iterations of the limited start-up; None: limited throughout")
+    max_iter: int = _opt(2000, "iteration cap", ge=1, le=100_000,
+                         why="the blade solves converge in 1 000-3 000 iterations; 100 000 on the medium mesh are "
+                         "~3 h")
+    tol: float = _opt(1e-6, "scaled-residual tolerance of u, v and continuity: the solve has converged below it",
+                      ge=1e-12, le=1, why=_RESIDUAL)
+    monitor_tol: float = _opt(1e-5, "with tol: the monitors (forces, C_max) must vary less than this (relative) "
+                              "over the last monitor_window iterations", ge=1e-12, le=1, why=_RELATIVE)
+    monitor_window: int = _opt(20, "iterations over which monitor_tol is judged", ge=2, le=10_000, why=_WINDOW)
+    monitor_groups: tuple[str, ...] = _opt((), "boundary groups whose forces are monitored")
+    classify_window: int = _opt(200, "a solve that reaches max_iter is classified (converged, oscillating, "
+                                "not_converged) from its monitors over its last classify_window iterations "
+                                "(solver.convergence.classify; docs/decisions/0014-convergence-classification.md)",
+                                ge=8, le=10_000, why=_WINDOW)
+    classify_tol: float = _opt(1e-3, "relative tolerance within which the monitors of a classify_window are "
+                               "stationary (converged)", ge=1e-12, le=1, why=_RELATIVE)
+    stall_tol: float | None = _opt(1e-4, "the stop test: a solve also stops as converged once every scaled "
+                                   "residual is below stall_tol and every monitor is settled within stop_tol "
+                                   "(solver.monitors.settled); null: off (docs/decisions/0013-stop-test.md)",
+                                   ge=1e-12, le=1, why=_RESIDUAL)
+    stop_window: int = _opt(50, "the stop test judges two windows of stop_window iterations", ge=2, le=10_000,
+                            why=_WINDOW)
+    stop_tol: float = _opt(1e-3, "the stop test's relative tolerance of each monitor to its extrapolated "
+                           "converged value", ge=1e-12, le=1, why=_RELATIVE)
+    stop_monitors: tuple[str, ...] = _opt((), "the monitors the stop test waits for (c_max, fx:<group>, "
+                                          "fy:<group>); empty: all of them")
+    early_classify: bool = _opt(True, "stop a solve whose oscillation or drift is established over two "
+                                "classification windows with the class it would get at max_iter "
+                                "(solver.monitors.established; docs/decisions/0015-early-stop.md)")
+    early_periods: float | None = _opt(8.0, "oscillation periods spanned by each window of the early stop, the "
+                                       "windows kept within [classify_window / 2, classify_window] iterations; "
+                                       "null: windows of classify_window (docs/decisions/0015-early-stop.md)",
+                                       gt=0, le=1000, why="oscillation periods spanned by each early-stop window; "
+                                       "None: windows of classify_window")
+    early_skip: int | None = _opt(100, "start-up iterations skipped before the early stop's two windows (at most "
+                                  "one window); null: one window (docs/decisions/0015-early-stop.md)",
+                                  ge=0, le=100_000, why="start-up iterations skipped before the early stop's two "
+                                  "windows (at most one window); None: one window")
+    pressure_gradient: str = _opt("least_squares", "pressure gradient of the momentum source and the Rhie–Chow "
+                                  "interpolation, solver.simple.PRESSURE_GRADIENTS: least_squares, green_gauss "
+                                  "(skewness-corrected face values), green_gauss_bounded (each face value within "
+                                  "its two cells' values) or green_gauss_linear (OpenFOAM's Gauss linear) "
+                                  "(docs/decisions/0001-blade-pressure-gradient.md)")
+    face_velocity: str = _opt("corrected", "velocity of the Rhie–Chow mass flux through each face, "
+                              "solver.pressure.FACE_VELOCITIES: corrected (reconstructed from both cells) or "
+                              "bounded (the same, each component within its two cells' values) "
+                              "(docs/decisions/0002-bounded-face-velocity.md)")
+    green_gauss_relaxation: float = _opt(1.0, "under-relaxation between iterations of the green_gauss pressure "
+                                         "gradient's correction, in (0, 1]; 1: none; the converged solution does "
+                                         "not depend on it (docs/decisions/0006-green-gauss-relaxation.md)",
+                                         gt=0, le=1, why="an under-relaxation factor of the green_gauss pressure "
+                                         "gradient's correction")
+    blas_threads: int | None = _opt(1, "BLAS threads while iterating (threadpoolctl, when installed); null: leave "
+                                    "as is; more threads only contend on the many small vector operations")
+    divergence_factor: float = _opt(1e5, "a residual above 1 and this many times its running minimum means "
+                                    "divergence", gt=1, le=1e12, why="a residual this many times its minimum is "
+                                    "divergence; 1e12 leaves no margin in double precision")
+    velocity_limit: float = _opt(1e4, "a cell velocity component above this means divergence, m/s", gt=0, le=1e8,
+                                 unit="m/s", why="a cell velocity above it is divergence")
+    momentum_solver: SolverSettings = _opt(doc="linear solver of the momentum systems",
+                                           factory=lambda: SolverSettings("gauss_seidel", 0.1, 8))
+    pressure_solver: SolverSettings = _opt(doc="linear solver of the pressure correction: AMG-preconditioned CG to "
+                                           "a relative residual of 0.05 (PRESSURE_AMG; "
+                                           "docs/decisions/0012-pressure-amg.md)",
+                                           factory=lambda: SolverSettings("amg", 0.05, 50, dict(PRESSURE_AMG)))
+
+    @classmethod
+    def for_blades(cls, **changes: Any) -> Self:
+        """The blade evaluations' settings (with ``changes``): the bounded Green–Gauss pressure gradient with
+        alpha_p 0.7 from iteration 151 (docs/decisions/0001-blade-pressure-gradient.md), the bounded face
+        velocity (docs/decisions/0002-bounded-face-velocity.md) and the limiter's K = 100
+        (docs/decisions/0003-limiter-k-for-blades.md); the other fields at their defaults."""
+        return cls(**{**BLADE_DEFAULTS, **changes})
 
     @property
     def pressure_relaxation(self) -> float:
         """The pressure under-relaxation applied: ``alpha_p``, or 1 when it is None."""
         return 1.0 if self.alpha_p is None else self.alpha_p
+
+
+#: The fields in which :meth:`SimpleSettings.for_blades` differs from the defaults.
+BLADE_DEFAULTS: dict[str, Any] = {"pressure_gradient": "green_gauss_bounded", "face_velocity": "bounded",
+                                  "alpha_p": 0.7, "startup_alpha_p_iterations": 150, "limiter_k": 100.0}

@@ -19,6 +19,8 @@ from the transferred velocity; the first outer iterations repair the mismatch ne
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 from scipy.spatial import cKDTree
 
@@ -73,3 +75,13 @@ def potential_start(problem: Problem, u_inf, solver: SolverSettings = POTENTIAL_
     s.u = s.u - ls_gradient(m, phi, phi_b)
     s.p = 0.5 * rho * (float(np.dot(u_inf, u_inf)) - (s.u**2).sum(axis=1))
     return s
+
+
+#: Initial fields by name: ``f(problem, u_inf) -> FlowState`` with ``u_inf`` the free-stream velocity (m/s,
+#: 2-vector): ``freestream`` (uniform ``u_inf``), ``rest`` (zero velocity) or ``potential`` (the potential flow
+#: around the walls, :func:`potential_start`). docs/decisions/0016-initial-field.md.
+INITIAL_FIELDS: dict[str, Callable[[Problem, tuple[float, float]], FlowState]] = {
+    "freestream": lambda problem, u_inf: initial_state(problem, tuple(u_inf)),
+    "rest": lambda problem, u_inf: initial_state(problem, (0.0, 0.0)),
+    "potential": potential_start,
+}

@@ -11,7 +11,7 @@ A campaign file is a configuration file (``blade:``, ``mesh:``, ``flow:``, ``sol
 ``constraints:``
     a list of ``{figure, upper, lower, abs}``: the design is feasible only if ``lower <= figure <= upper``.
 ``convergence:``
-    what a solve that did not converge is worth (the objective policy, ``docs/campaigns.md``):
+    what a solve that did not converge is worth (the objective policy, ``docs/explanation/campaigns.md``):
     ``oscillating`` = ``accept_below_amplitude`` (default; values are the window means, accepted while the
     amplitude of every objective's monitor is at most ``max_amplitude`` = 0.01 of its mean), ``accept_mean``
     or ``fail``. A ``not_converged`` solve (drifting monitors) always fails. The class is judged on the
@@ -22,7 +22,7 @@ A campaign file is a configuration file (``blade:``, ``mesh:``, ``flow:``, ``sol
     ``prob`` null: 1 / number of design variables), ``initial_draws`` (rejection-sampling budget per member
     of the feasible initial population).
 ``execution:``
-    where evaluations run (:class:`optimizer.campaign.runner.ExecutionConfig`).
+    where evaluations run (:class:`ExecutionConfig`, the backends of :data:`optimizer.campaign.runner.RUNNERS`).
 ``output:``
     ``directory``: the run directory (store, resolved config), relative to the working directory.
 ``analytic:``
@@ -41,12 +41,12 @@ from typing import Any, Literal
 import yaml
 from pydantic import Field, ValidationError, field_validator, model_validator
 
-from optimizer.campaign.runner import ExecutionConfig
+from optimizer.campaign.runner import RUNNERS
 from optimizer.config import (
     Config,
     ConfigError,
     ConfigWarning,
-    _Frozen,
+    Section,
     apply_overrides,
     explain,
     load_config,
@@ -71,14 +71,16 @@ ANALYTIC: dict[str, tuple[str, ...]] = {"zdt1": ("f1", "f2")}
 DEFAULT_OBJECTIVES = ({"figure": "fy", "sense": "max", "abs": True}, {"figure": "c_max", "sense": "min"})
 
 
-class Objective(_Frozen):
+class Objective(Section):
     """One objective: ``figure`` (see :data:`FIGURES`), ``sense``, ``abs`` (magnitude first) and the
     hypervolume ``reference`` value in the figure's unit (null: from the first generation)."""
 
-    figure: str
-    sense: Literal["min", "max"] = "min"
-    abs: bool = False
-    reference: float | None = None
+    figure: str = Field(description="the figure to optimise, one of FIGURES (fx, fy, c_max...; the analytic "
+                        "problem's f1, f2)")
+    sense: Literal["min", "max"] = Field("min", description="minimise or maximise the figure")
+    abs: bool = Field(False, description="take the figure's magnitude first (|fy|)")
+    reference: float | None = Field(None, description="hypervolume reference value, in the figure's unit; null: "
+                                    "from the first generation")
 
     @property
     def label(self) -> str:
@@ -86,13 +88,13 @@ class Objective(_Frozen):
         return f"|{self.figure}|" if self.abs else self.figure
 
 
-class FigureConstraint(_Frozen):
+class FigureConstraint(Section):
     """``lower <= figure <= upper`` (either bound may be left out; ``abs``: on the magnitude)."""
 
-    figure: str
-    upper: float | None = None
-    lower: float | None = None
-    abs: bool = False
+    figure: str = Field(description="the constrained figure, one of FIGURES")
+    upper: float | None = Field(None, description="largest allowed value, in the figure's unit; null: none")
+    lower: float | None = Field(None, description="smallest allowed value, in the figure's unit; null: none")
+    abs: bool = Field(False, description="constrain the figure's magnitude")
 
     @model_validator(mode="after")
     def _one_bound(self) -> FigureConstraint:
@@ -114,50 +116,59 @@ class FigureConstraint(_Frozen):
         return out
 
 
-class ConvergencePolicy(_Frozen):
+class ConvergencePolicy(Section):
     """``convergence:`` — what an unsettled solve is worth (see the module docstring)."""
 
-    oscillating: Literal["accept_below_amplitude", "accept_mean", "fail"] = "accept_below_amplitude"
-    max_amplitude: float = Field(0.01, gt=0)
+    oscillating: Literal["accept_below_amplitude", "accept_mean", "fail"] = Field(
+        "accept_below_amplitude", description="what an oscillating solve is worth: its window means while every "
+        "objective's amplitude is at most max_amplitude (accept_below_amplitude), its window means always "
+        "(accept_mean), or a failed evaluation (fail)")
+    max_amplitude: float = Field(0.01, gt=0, description="largest accepted oscillation amplitude, relative to the "
+                                 "monitor's mean (0.01 is 1 %)")
 
 
-class Crossover(_Frozen):
+class Crossover(Section):
     """pymoo SBX: distribution index ``eta`` and probability ``prob`` of crossing a pair."""
 
-    eta: float = Field(15.0, gt=0)
-    prob: float = Field(0.9, ge=0, le=1)
+    eta: float = Field(15.0, gt=0, description="SBX distribution index: larger keeps children nearer their parents")
+    prob: float = Field(0.9, ge=0, le=1, description="probability of crossing a pair")
 
 
-class Mutation(_Frozen):
+class Mutation(Section):
     """pymoo PM: distribution index ``eta``; ``prob`` per variable (null: 1 / number of variables)."""
 
-    eta: float = Field(20.0, gt=0)
-    prob: float | None = Field(None, ge=0, le=1)
+    eta: float = Field(20.0, gt=0, description="PM distribution index: larger makes smaller mutations")
+    prob: float | None = Field(None, ge=0, le=1, description="probability of mutating each design variable; null: "
+                               "1 / number of design variables")
 
 
-class AlgorithmConfig(_Frozen):
+class AlgorithmConfig(Section):
     """``algorithm:`` — NSGA-II settings (the paper: population 100, 50 generations)."""
 
-    population: int = Field(100, ge=2)
-    generations: int = Field(50, ge=1)
-    offspring: int | None = Field(None, ge=1)
-    seed: int = Field(1, ge=0)
-    crossover: Crossover = Crossover()
-    mutation: Mutation = Mutation()
-    initial_draws: int = Field(1000, ge=1)
+    population: int = Field(100, ge=2, description="designs per generation")
+    generations: int = Field(50, ge=1, description="generations, the initial one included")
+    offspring: int | None = Field(None, ge=1, description="new designs per generation; null: the population")
+    seed: int = Field(1, ge=0, description="random seed: the same seed and configuration give the same campaign")
+    crossover: Crossover = Field(Crossover(), description="pymoo SBX crossover")
+    mutation: Mutation = Field(Mutation(), description="pymoo polynomial mutation")
+    initial_draws: int = Field(1000, ge=1, description="rejection-sampling budget per member of the feasible "
+                               "initial population")
 
 
-class OutputConfig(_Frozen):
+class OutputConfig(Section):
     """``output:`` — ``directory``: the run directory (relative paths: to the working directory).
     ``sync``: ``full`` (default): every stored evaluation survives even a power cut of the driver's machine
     (one fsync per evaluation, about 1 ms on this machine's disk); ``normal``: it survives the driver's
     death (SIGKILL, an exception) but possibly not a power cut — for fast analytic runs."""
 
-    directory: Path = Path("runs/campaign")
-    sync: Literal["full", "normal"] = "full"
+    directory: Path = Field(Path("runs/campaign"), description="the run directory (store, resolved "
+                            "configuration); relative paths: to the working directory")
+    sync: Literal["full", "normal"] = Field("full", description="full: every stored evaluation survives a power "
+                                            "cut (one fsync per evaluation); normal: it survives the driver's death "
+                                            "but possibly not a power cut")
 
 
-class AnalyticConfig(_Frozen):
+class AnalyticConfig(Section):
     """``analytic:`` — an analytic problem in place of the blade (loop tests without CFD).
 
     problem: ``zdt1`` (Zitzler, Deb & Thiele 2000; front f2 = 1 - sqrt(f1), f1 in [0, 1]).
@@ -165,21 +176,155 @@ class AnalyticConfig(_Frozen):
     parallel execution, timeouts and interruption).
     """
 
-    problem: Literal["zdt1"] = "zdt1"
-    variables: int = Field(6, ge=2, le=100)
-    delay: float = Field(0.0, ge=0)
+    problem: Literal[tuple(ANALYTIC)] = Field("zdt1", description="the analytic problem (ANALYTIC): zdt1")
+    variables: int = Field(6, ge=2, le=100, description="number of design variables, each in [0, 1]")
+    delay: float = Field(0.0, ge=0, description="seconds each evaluation sleeps (to test parallel execution, "
+                         "timeouts and interruption), s", json_schema_extra={"unit": "s"})
+
+
+_WALLTIME = re.compile(r"^(?:(\d+)-)?(\d+):(\d{2})(?::(\d{2}))?$")
+
+
+def walltime_seconds(walltime: str) -> float:
+    """Seconds of a SLURM/PBS wall time ``[D-]HH:MM[:SS]`` (``"01:30:00"`` → 5400.0)."""
+    m = _WALLTIME.match(walltime.strip())
+    if not m:
+        raise ValueError(f"walltime {walltime!r} is not [D-]HH:MM[:SS]")
+    days, hours, minutes, seconds = (int(g) if g else 0 for g in m.groups())
+    return float(((days * 24 + hours) * 60 + minutes) * 60 + seconds)
+
+
+def _timedelta_seconds(value: str) -> float:
+    """Seconds of a dask time string (``"55m"``, ``"1h"``, ``"90s"``)."""
+    from dask.utils import parse_timedelta
+
+    try:
+        return float(parse_timedelta(value))
+    except (ValueError, KeyError, TypeError) as exc:
+        raise ValueError(f"{value!r} is not a duration such as '50m', '1h' or '90s'") from exc
+
+
+class ClusterOptions(Section):
+    """Options of a ``dask-jobqueue`` cluster (``execution.cluster``; used by backends ``slurm``, ``pbs``).
+
+    One job (named ``job_name`` in ``squeue``) runs ``processes`` single-threaded workers on ``cores`` cores
+    (``processes`` defaults to ``cores``). ``log_directory`` receives the jobs' output (default: the
+    directory the campaign was started from); ``job_script_prologue`` lines run before the worker starts
+    (``module load ...``, ``source venv/bin/activate``); ``job_extra_directives`` are added as
+    ``#SBATCH``/``#PBS`` lines (``--constraint=...``, ``-l select=...``).
+
+    Workers retire after ``lifetime`` ± ``lifetime_stagger`` (dask durations such as ``"50m"``), before the
+    scheduler's wall time kills the job, and the runner starts a new job in their place; an evaluation cut
+    by a retirement is resubmitted (it costs a retry: keep ``lifetime`` well above ``execution.timeout``).
+    Defaults: with ``m = min(5 min, walltime / 10)``, ``lifetime = walltime - 2 m`` and
+    ``lifetime_stagger = m``, so workers leave between ``walltime - 3 m`` and ``walltime - m``.
+    """
+
+    queue: str | None = Field(None, description="queue (SLURM partition) of the jobs; null: the scheduler's "
+                              "default")
+    account: str | None = Field(None, description="account the jobs are charged to; null: the user's default")
+    walltime: str = Field("01:00:00", description="wall time of each job, [D-]HH:MM[:SS]")
+    cores: int = Field(1, ge=1, description="cores per job")
+    processes: int | None = Field(None, ge=1, description="single-threaded worker processes per job (cores must "
+                                  "be a multiple of it); null: cores")
+    memory: str = Field("4GiB", description="memory per job, e.g. 4GiB")
+    job_extra_directives: tuple[str, ...] = Field((), description="extra #SBATCH/#PBS lines, e.g. "
+                                                  "--constraint=...")
+    job_script_prologue: tuple[str, ...] = Field((), description="shell lines run before the worker starts (module "
+                                                 "load ..., source venv/bin/activate)")
+    local_directory: str | None = Field(None, description="the workers' scratch directory on the nodes; null: "
+                                        "dask's default")
+    log_directory: str | None = Field(None, description="directory of the jobs' output; null: the directory the "
+                                      "campaign was started from")
+    interface: str | None = Field(None, description="network interface of the workers, e.g. ib0; null: dask's "
+                                  "default")
+    python: str | None = Field(None, description="Python interpreter of the workers; null: this one")
+    lifetime: str | None = Field(None, description="a worker retires after this dask duration (50m, 1h); null: "
+                                 "walltime - 2 min(5 min, walltime / 10)")
+    lifetime_stagger: str | None = Field(None, description="spread of the workers' retirements (a dask "
+                                         "duration); null: min(5 min, walltime / 10)")
+    job_name: str = Field("millfoil-worker", description="name of the jobs (as squeue shows it)")
+
+    @field_validator("walltime")
+    @classmethod
+    def _walltime_format(cls, value: str) -> str:
+        walltime_seconds(value)
+        return value
+
+    @field_validator("lifetime", "lifetime_stagger")
+    @classmethod
+    def _duration_format(cls, value: str | None) -> str | None:
+        if value is not None:
+            _timedelta_seconds(value)
+        return value
+
+    @model_validator(mode="after")
+    def _consistent(self) -> ClusterOptions:
+        if self.cores % self.worker_processes:
+            raise ValueError(f"cores ({self.cores}) must be a multiple of processes ({self.processes})")
+        lifetime, stagger = self.lifetimes_s()
+        if lifetime + stagger >= walltime_seconds(self.walltime):
+            raise ValueError(f"lifetime + lifetime_stagger ({lifetime:g} s + {stagger:g} s) must be shorter than "
+                             f"walltime {self.walltime!r}, or workers are killed by the wall time")
+        return self
+
+    @property
+    def worker_processes(self) -> int:
+        """Worker processes per job (single-threaded workers: ``cores`` unless set)."""
+        return self.processes or self.cores
+
+    def lifetimes_s(self) -> tuple[float, float]:
+        """(lifetime, stagger) of a worker in seconds, the defaults derived from the wall time."""
+        margin = min(300.0, walltime_seconds(self.walltime) / 10)
+        stagger = _timedelta_seconds(self.lifetime_stagger) if self.lifetime_stagger else margin
+        lifetime = (_timedelta_seconds(self.lifetime) if self.lifetime
+                    else walltime_seconds(self.walltime) - 2 * margin)
+        return lifetime, stagger
+
+
+class ExecutionConfig(Section):
+    """``execution:`` — where and how a campaign's evaluations run (:mod:`optimizer.campaign.runner`)."""
+
+    backend: Literal[tuple(RUNNERS)] = Field("local", description="where evaluations run, "
+                                             "optimizer.campaign.runner.RUNNERS: inline (this process, one after "
+                                             "the other), local (one worker process per core), scheduler (an "
+                                             "existing dask scheduler), slurm or pbs (dask-jobqueue jobs)")
+    workers: int | None = Field(None, ge=1, description="worker processes (local; null: one per core) or jobs "
+                                "(slurm, pbs; null: 1)")
+    timeout: float = Field(1800.0, gt=0, description="seconds an evaluation may run on a worker, s",
+                           json_schema_extra={"unit": "s"})
+    retries: int = Field(2, ge=0, description="times an evaluation lost with its worker is resubmitted before it "
+                         "is recorded worker_lost")
+    timeout_grace: float = Field(60.0, ge=0, description="seconds a worker may keep running a timed-out "
+                                 "evaluation before it is restarted, s", json_schema_extra={"unit": "s"})
+    address: str | None = Field(None, description="the dask scheduler's address (backend scheduler only), e.g. "
+                                "tcp://10.0.0.1:8786")
+    cluster: ClusterOptions = Field(ClusterOptions(), description="the dask-jobqueue cluster (backends slurm, "
+                                    "pbs)")
+
+    @model_validator(mode="after")
+    def _address_for_scheduler_only(self) -> ExecutionConfig:
+        if self.backend == "scheduler" and not self.address:
+            raise ValueError("backend 'scheduler' needs address (e.g. 'tcp://host:8786')")
+        if self.backend != "scheduler" and self.address:
+            raise ValueError(f"address is used by backend 'scheduler' only, not {self.backend!r}")
+        return self
 
 
 class CampaignConfig(Config):
     """A whole campaign file (see the module docstring)."""
 
-    objectives: tuple[Objective, ...] = ()
-    constraints: tuple[FigureConstraint, ...] = ()
-    convergence: ConvergencePolicy = ConvergencePolicy()
-    algorithm: AlgorithmConfig = AlgorithmConfig()
-    execution: ExecutionConfig = ExecutionConfig()
-    output: OutputConfig = OutputConfig()
-    analytic: AnalyticConfig | None = None
+    objectives: tuple[Objective, ...] = Field((), description="what the campaign optimises; empty: maximise "
+                                              "|F_Y| and minimise C_max (the paper's pair)")
+    constraints: tuple[FigureConstraint, ...] = Field((), description="bounds on figures that a feasible design "
+                                                      "meets")
+    convergence: ConvergencePolicy = Field(ConvergencePolicy(), description="what a solve that did not converge "
+                                           "is worth")
+    algorithm: AlgorithmConfig = Field(AlgorithmConfig(), description="the NSGA-II optimiser's settings")
+    execution: ExecutionConfig = Field(ExecutionConfig(), description="where and how the evaluations run")
+    output: OutputConfig = Field(OutputConfig(), description="where the campaign's results go")
+    analytic: AnalyticConfig | None = Field(None, description="an analytic problem in place of the blade (loop "
+                                            "tests without CFD); null: the blade")
 
     @model_validator(mode="before")
     @classmethod

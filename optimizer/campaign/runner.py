@@ -44,7 +44,8 @@ Where the runner owns the scheduler (local, slurm, pbs) it sets ``allowed-failur
 retries itself) and a single-threaded worker holds only the task it is running. An external scheduler keeps
 its own settings: its ``allowed-failures`` retries come on top of ``execution.retries``.
 
-See ``docs/campaigns-cluster.md``.
+Its configuration, :class:`optimizer.campaign.config.ExecutionConfig`, lives with the campaign's; see
+``docs/how-to/run-on-a-cluster.md``.
 """
 
 from __future__ import annotations
@@ -52,7 +53,6 @@ from __future__ import annotations
 import logging
 import math
 import os
-import re
 import time
 import traceback
 import uuid
@@ -60,9 +60,10 @@ from abc import ABC, abstractmethod
 from collections import deque
 from collections.abc import Callable, Iterable, Iterator, Mapping
 from dataclasses import dataclass
-from typing import Any, ClassVar
+from typing import TYPE_CHECKING, ClassVar
 
-from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
+if TYPE_CHECKING:
+    from optimizer.campaign.config import ExecutionConfig
 
 log = logging.getLogger(__name__)
 
@@ -73,153 +74,6 @@ PINNED_THREADS_ENV = {"OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_
 START_TOPIC = "millfoil-task-start"
 #: How long the result loop waits for a completion before checking timeouts and stuck workers, s.
 POLL_S = 0.2
-
-
-# --------------------------------------------------------------------------------------------------
-# Configuration
-# --------------------------------------------------------------------------------------------------
-
-
-class _Section(BaseModel):
-    """A frozen configuration section whose unknown keys are an error naming the allowed ones."""
-
-    model_config = ConfigDict(frozen=True, extra="forbid")
-
-    @model_validator(mode="before")
-    @classmethod
-    def _reject_unknown_keys(cls, data: Any) -> Any:
-        if isinstance(data, Mapping):
-            unknown = sorted(set(data) - set(cls.model_fields))
-            if unknown:
-                allowed = ", ".join(cls.model_fields)
-                raise ValueError(f"unknown key {', '.join(map(repr, unknown))}; allowed keys: {allowed}")
-        return data
-
-
-_WALLTIME = re.compile(r"^(?:(\d+)-)?(\d+):(\d{2})(?::(\d{2}))?$")
-
-
-def walltime_seconds(walltime: str) -> float:
-    """Seconds of a SLURM/PBS wall time ``[D-]HH:MM[:SS]`` (``"01:30:00"`` → 5400.0)."""
-    m = _WALLTIME.match(walltime.strip())
-    if not m:
-        raise ValueError(f"walltime {walltime!r} is not [D-]HH:MM[:SS]")
-    days, hours, minutes, seconds = (int(g) if g else 0 for g in m.groups())
-    return float(((days * 24 + hours) * 60 + minutes) * 60 + seconds)
-
-
-def _timedelta_seconds(value: str) -> float:
-    """Seconds of a dask time string (``"55m"``, ``"1h"``, ``"90s"``)."""
-    from dask.utils import parse_timedelta
-
-    try:
-        return float(parse_timedelta(value))
-    except (ValueError, KeyError, TypeError) as exc:
-        raise ValueError(f"{value!r} is not a duration such as '50m', '1h' or '90s'") from exc
-
-
-class ClusterOptions(_Section):
-    """Options of a ``dask-jobqueue`` cluster (``execution.cluster``; used by backends ``slurm``, ``pbs``).
-
-    One job (named ``job_name`` in ``squeue``) runs ``processes`` single-threaded workers on ``cores`` cores
-    (``processes`` defaults to ``cores``). ``log_directory`` receives the jobs' output (default: the
-    directory the campaign was started from); ``job_script_prologue`` lines run before the worker starts
-    (``module load ...``, ``source venv/bin/activate``); ``job_extra_directives`` are added as
-    ``#SBATCH``/``#PBS`` lines (``--constraint=...``, ``-l select=...``).
-
-    Workers retire after ``lifetime`` ± ``lifetime_stagger`` (dask durations such as ``"50m"``), before the
-    scheduler's wall time kills the job, and the runner starts a new job in their place; an evaluation cut
-    by a retirement is resubmitted (it costs a retry: keep ``lifetime`` well above ``execution.timeout``).
-    Defaults: with ``m = min(5 min, walltime / 10)``, ``lifetime = walltime - 2 m`` and
-    ``lifetime_stagger = m``, so workers leave between ``walltime - 3 m`` and ``walltime - m``.
-    """
-
-    queue: str | None = None
-    account: str | None = None
-    walltime: str = "01:00:00"
-    cores: int = Field(1, ge=1)
-    processes: int | None = Field(None, ge=1)
-    memory: str = "4GiB"
-    job_extra_directives: tuple[str, ...] = ()
-    job_script_prologue: tuple[str, ...] = ()
-    local_directory: str | None = None
-    log_directory: str | None = None
-    interface: str | None = None
-    python: str | None = None
-    lifetime: str | None = None
-    lifetime_stagger: str | None = None
-    job_name: str = "millfoil-worker"
-
-    @field_validator("walltime")
-    @classmethod
-    def _walltime_format(cls, value: str) -> str:
-        walltime_seconds(value)
-        return value
-
-    @field_validator("lifetime", "lifetime_stagger")
-    @classmethod
-    def _duration_format(cls, value: str | None) -> str | None:
-        if value is not None:
-            _timedelta_seconds(value)
-        return value
-
-    @model_validator(mode="after")
-    def _consistent(self) -> ClusterOptions:
-        if self.cores % self.worker_processes:
-            raise ValueError(f"cores ({self.cores}) must be a multiple of processes ({self.processes})")
-        lifetime, stagger = self.lifetimes_s()
-        if lifetime + stagger >= walltime_seconds(self.walltime):
-            raise ValueError(f"lifetime + lifetime_stagger ({lifetime:g} s + {stagger:g} s) must be shorter than "
-                             f"walltime {self.walltime!r}, or workers are killed by the wall time")
-        return self
-
-    @property
-    def worker_processes(self) -> int:
-        """Worker processes per job (single-threaded workers: ``cores`` unless set)."""
-        return self.processes or self.cores
-
-    def lifetimes_s(self) -> tuple[float, float]:
-        """(lifetime, stagger) of a worker in seconds, the defaults derived from the wall time."""
-        margin = min(300.0, walltime_seconds(self.walltime) / 10)
-        stagger = _timedelta_seconds(self.lifetime_stagger) if self.lifetime_stagger else margin
-        lifetime = (_timedelta_seconds(self.lifetime) if self.lifetime
-                    else walltime_seconds(self.walltime) - 2 * margin)
-        return lifetime, stagger
-
-
-class ExecutionConfig(_Section):
-    """Where and how evaluations run (the ``execution:`` section of a campaign).
-
-    backend: one of :data:`RUNNERS`. workers: worker processes (``local``; default one per core) or
-    jobs (``slurm``/``pbs``; default 1). timeout: seconds an evaluation may run on a worker. retries: how
-    many times an evaluation lost with its worker is resubmitted before it is recorded ``worker_lost``.
-    timeout_grace: seconds a worker may keep running a timed-out evaluation before it is restarted.
-    address: the scheduler (``scheduler`` backend only), e.g. ``tcp://10.0.0.1:8786``. cluster:
-    :class:`ClusterOptions` (``slurm``/``pbs`` only).
-    """
-
-    backend: str = "local"
-    workers: int | None = Field(None, ge=1)
-    timeout: float = Field(1800.0, gt=0)
-    retries: int = Field(2, ge=0)
-    timeout_grace: float = Field(60.0, ge=0)
-    address: str | None = None
-    cluster: ClusterOptions = ClusterOptions()
-
-    @field_validator("backend")
-    @classmethod
-    def _known_backend(cls, value: str) -> str:
-        if value not in RUNNERS:
-            raise ValueError(f"unknown backend {value!r}; allowed: {', '.join(RUNNERS)}")
-        return value
-
-    @model_validator(mode="after")
-    def _address_for_scheduler_only(self) -> ExecutionConfig:
-        if self.backend == "scheduler" and not self.address:
-            raise ValueError("backend 'scheduler' needs address (e.g. 'tcp://host:8786')")
-        if self.backend != "scheduler" and self.address:
-            raise ValueError(f"address is used by backend 'scheduler' only, not {self.backend!r}")
-        return self
 
 
 # --------------------------------------------------------------------------------------------------
@@ -290,8 +144,10 @@ def _describe(exc: BaseException) -> str:
 class Runner(ABC):
     """Runs batches of tasks; a context manager that starts and stops its workers."""
 
-    def __init__(self, config: ExecutionConfig):
+    def __init__(self, config: ExecutionConfig, clock: Callable[[], float] = time.monotonic):
         self.config = config
+        #: Seconds of a monotonic clock: what durations and timeouts are measured with (tests inject one).
+        self.clock = clock
 
     def __enter__(self) -> Runner:
         self.start()
@@ -333,14 +189,14 @@ class InlineRunner(Runner):
 
     def run(self, fn: Callable[[dict], dict], tasks: Iterable[Task]) -> Iterator[TaskResult]:
         for task in tasks:
-            t0 = time.monotonic()
+            t0 = self.clock()
             try:
                 record = fn(_with_deadline(task.payload, self.config.timeout))
             except Exception as exc:  # a raise from fn is a bug to report, not a reason to stop the batch
                 yield TaskResult(task.key, task.generation, None, "error", _describe(exc), "",
-                                 time.monotonic() - t0)
+                                 self.clock() - t0)
                 continue
-            yield TaskResult(task.key, task.generation, record, "done", "", "", time.monotonic() - t0)
+            yield TaskResult(task.key, task.generation, record, "done", "", "", self.clock() - t0)
 
 
 def _execute(fn_pickle: bytes, payload: dict, key: str, timeout: float) -> dict:
@@ -397,8 +253,8 @@ class DaskRunner(Runner):
     SCHEDULER_CONFIG: ClassVar[dict] = {"distributed.scheduler.allowed-failures": 0,
                                         "distributed.scheduler.worker-saturation": 1.0}
 
-    def __init__(self, config: ExecutionConfig):
-        super().__init__(config)
+    def __init__(self, config: ExecutionConfig, clock: Callable[[], float] = time.monotonic):
+        super().__init__(config, clock)
         self.cluster = None
         self.client = None
         self._started: dict[str, tuple[float, str]] = {}  # dask key -> (monotonic start, worker)
@@ -438,7 +294,7 @@ class DaskRunner(Runner):
     def _on_start(self, event: tuple[float, dict]) -> None:
         """Start-event handler (client event loop): the attempt's timeout clock starts now."""
         msg = event[1]
-        self._started[msg["key"]] = (time.monotonic(), msg["worker"])
+        self._started[msg["key"]] = (self.clock(), msg["worker"])
 
     # ---- the batch --------------------------------------------------------------------------------
 
@@ -484,7 +340,7 @@ class DaskRunner(Runner):
             key = f"millfoil-{task.key}-{losses}-{uuid.uuid4().hex[:8]}"
             future = self.client.submit(_execute, fn_pickle, task.payload, key, self.config.timeout, key=key,
                                         pure=False)
-            pending[future] = _Attempt(task, key, losses, time.monotonic())
+            pending[future] = _Attempt(task, key, losses, self.clock())
             ac.add(future)
 
     def _threads(self) -> int:
@@ -493,7 +349,7 @@ class DaskRunner(Runner):
         A stale count (a worker lost in the last fraction of a second) costs at most one task queued on the
         scheduler; asking on every completion would cost a round trip per task.
         """
-        now = time.monotonic()
+        now = self.clock()
         if now - self._threads_at > POLL_S:
             self._threads_n = sum(self.client.nthreads().values())
             self._threads_at = now
@@ -513,7 +369,7 @@ class DaskRunner(Runner):
     def _elapsed(self, attempt: _Attempt) -> tuple[float, str]:
         """(seconds since the attempt started on a worker, or since submission; that worker or "")."""
         start, worker = self._started.get(attempt.key, (attempt.submitted, ""))
-        return time.monotonic() - start, worker
+        return self.clock() - start, worker
 
     def _settle(self, future, value, attempt: _Attempt, waiting: deque) -> TaskResult | None:
         """The result of a completed future, or None if the task was resubmitted after a worker loss.
@@ -571,7 +427,7 @@ class DaskRunner(Runner):
             del pending[future]
             future.cancel()
             self._started.pop(attempt.key, None)
-            self._stuck[attempt.key] = (worker, time.monotonic() + self.config.timeout_grace)
+            self._stuck[attempt.key] = (worker, self.clock() + self.config.timeout_grace)
             task = attempt.task
             yield TaskResult(task.key, task.generation, None, "timeout",
                              f"ran longer than the timeout of {self.config.timeout:g} s", worker, seconds,
@@ -579,7 +435,7 @@ class DaskRunner(Runner):
 
     def _restart_stuck_workers(self) -> None:
         """Restart each worker still running a timed-out evaluation ``timeout_grace`` s after its cancel."""
-        now = time.monotonic()
+        now = self.clock()
         for key, (worker, check_at) in list(self._stuck.items()):
             if now < check_at:
                 continue
@@ -668,6 +524,8 @@ RUNNERS: dict[str, type[Runner]] = {
 
 def make_runner(config: ExecutionConfig | Mapping | None = None) -> Runner:
     """The runner of ``config.backend`` (an :class:`ExecutionConfig` or its mapping; None: defaults)."""
+    from optimizer.campaign.config import ExecutionConfig  # the configuration imports RUNNERS from here
+
     if not isinstance(config, ExecutionConfig):
         config = ExecutionConfig.model_validate(config or {})
     return RUNNERS[config.backend](config)

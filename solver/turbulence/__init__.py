@@ -75,8 +75,11 @@ from .closures import (
 )
 from .sst import (
     FACE_DIFFUSIVITIES,
+    OMEGA_PRODUCTIONS,
+    OMEGA_WALL_FLUXES,
     PRODUCTION_MEASURES,
     SST,
+    VELOCITY_GRADIENTS,
     SSTSetup,
     build_setup,
     face_diffusivity,
@@ -86,9 +89,14 @@ from .sst import (
 )
 from .walls import WALL_TREATMENTS, WallValues, automatic_wall, low_re_wall
 
+#: Flow models by name: the turbulence model's configuration class, or None for laminar flow (``Problem.create(...,
+#: turbulence=MODELS[name]())`` when not None).
+MODELS: dict[str, type | None] = {"sst": SST, "laminar": None}
+
 __all__ = [
-    "DEFAULT_INTENSITY", "DEFAULT_VISCOSITY_RATIO", "FACE_DIFFUSIVITIES", "PRODUCTION_MEASURES", "SST", "SSTConstants",
-    "SSTSetup", "TMR_FREESTREAM", "WALL_TREATMENTS", "WallValues", "automatic_wall", "blend", "build_setup",
+    "DEFAULT_INTENSITY", "DEFAULT_VISCOSITY_RATIO", "FACE_DIFFUSIVITIES", "MODELS", "OMEGA_PRODUCTIONS",
+    "OMEGA_WALL_FLUXES", "PRODUCTION_MEASURES", "SST", "SSTConstants", "SSTSetup", "TMR_FREESTREAM",
+    "VELOCITY_GRADIENTS", "WALL_TREATMENTS", "WallValues", "automatic_wall", "blend", "build_setup",
     "cross_diffusion", "eddy_viscosity", "f1", "f2", "face_diffusivity", "inlet_turbulence", "initial_fields",
     "log_mean", "low_re_wall", "momentum_viscosity", "omega_flux_factor", "omega_log", "omega_viscous",
     "production", "spalding_u_tau", "spalding_velocity_gradient", "turbulence_step", "velocity_invariants",

@@ -6,7 +6,8 @@ See :mod:`solver.turbulence` for the equations.
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
+from typing import Self
 
 import numpy as np
 
@@ -16,6 +17,7 @@ from ..fvmesh import FVMesh
 from ..gradient import green_gauss_gradient, interpolate_linear, ls_gradient
 from ..kernels import log_mean_faces, sst_blending_arguments, sst_f2_argument, sst_omega_coefficients
 from ..linalg import SolverSettings
+from ..settings import _opt
 from ..transport import scalar_system
 from ..walldistance import WALL_TYPES, wall_distance, wall_faces
 from .closures import (
@@ -33,63 +35,48 @@ from .walls import WALL_TREATMENTS, with_wall_law_gradient
 class SST:
     """Menter k-omega SST (SST-2003) configuration: ``Problem.create(..., turbulence=SST())``.
 
-    wall_treatment: ``"automatic"`` (y+-insensitive) or ``"low_re"`` (y+ ~ 1), :data:`WALL_TREATMENTS`.
-    constants: :class:`SSTConstants`.
-    production_measure: ``"strain"`` (SST-2003) or ``"vorticity"`` (SST-V) in the production terms
-        (:data:`PRODUCTION_MEASURES`).
-    omega_production: ``"unlimited"`` (default, ``gamma S_P²``) or ``"limited"`` (``gamma P~ / nu_t``: the
-        production limiter of the k equation carried into the omega equation, as OpenFOAM's ``kOmegaSST``
-        does since v1906), :data:`OMEGA_PRODUCTIONS`.
-    alpha_k, alpha_omega: implicit under-relaxation of the k and omega equations. 0.9, OpenFOAM's
-        ``simpleFoam`` tutorial values: with the solves below they cut the iterations of a medium blade
-        evaluation by 16 % (median 335 -> 280 over 26 converged random blades) and no blade's convergence
-        class gets worse (docs/performance.md, "Time to converged lift (session 7)").
-    convection: ``"upwind"`` (default) or ``"linear_upwind"`` (deferred correction, limited gradient) for
-        k and omega. Upwind by default: k and omega are source-dominated in boundary layers (production
-        ~ dissipation), and with the limited linear-upwind correction the limiter chatters and stalls the
-        k residual at 1e-6..1e-5 (flat plate, measured), above the default convergence tolerance; on the
-        flat plate first-order k/omega convection changed c_f(0.97) by +0.3 % (medium mesh: -1.41 % vs
-        -1.70 % from TMR). :data:`solver.assembly.CONVECTION_SCHEMES`.
-    limiter, limiter_k: gradient limiter of ``linear_upwind`` (:data:`solver.gradient.LIMITERS`).
-    solver: linear solver of the k and omega systems: symmetric Gauss-Seidel sweeps until the residual
-        falls by 0.1 (OpenFOAM's ``smoothSolver`` with ``relTol 0.1``), at most 8; 1.6-2.2 sweeps on average.
-    k_floor, omega_floor: positivity floors relative to the inlet k and omega (values are clipped).
-    face_interpolation: face values of the diffusivities ``mu + sigma mu_t``: ``"log_mean"`` (default) or
-        ``"linear"`` (:data:`FACE_DIFFUSIVITIES`).
-    omega_wall_flux: omega diffusivity of the faces between a wall cell (omega fixed) and the next cells:
-        ``"analytic"`` (default, scaled by :func:`omega_flux_factor` so that the two-point difference carries
-        the flux of the analytic near-wall omega) or ``"two_point"`` (unscaled, as OpenFOAM's
-        ``omegaWallFunction``), :data:`OMEGA_WALL_FLUXES`.
-    velocity_gradient: the velocity gradient of the SST step (strain and vorticity of the production terms
-        and of the eddy-viscosity limiter), :data:`VELOCITY_GRADIENTS`: ``"green_gauss_bounded"`` (default
-        since session 11), ``"green_gauss"`` or ``"least_squares"`` (the momentum step's own gradient, the
-        default of sessions 1-10). The Green–Gauss forms sum face values reconstructed from both sides with
-        the least-squares gradients (as OpenFOAM's ``Gauss linear`` grad(U), with the reconstruction);
-        ``_bounded`` clips each face value to its two cells' range. Why: at the nose of the blades with a
-        sharp suction peak the least-squares gradient of the stretched, curved cells over-states the
-        stagnation strain (k 27 % above OpenFOAM's near the peak of random16, C_max 2.55 % low; -1.27 % with
-        the bounded form), and over the issue-15 blade set |delta C_L| against OpenFOAM falls from 0.64 % to
-        0.35 % by the median. Under the ``automatic`` wall treatment the wall cells' faces are reconstructed
-        with the law of the wall's normal derivative (:func:`.walls.with_wall_law_gradient`): with the cells'
-        own least-squares gradient, which holds the wall value, the y+ 30 flat plate's c_f was 4.1 % off TMR
-        (session 10), with the law's 0.03 % (docs/validation-blades.md, session 11).
+    Each field's ``metadata["doc"]`` says what it does (:func:`solver.settings.setting_doc`); the choices
+    of a text field are the keys of its registry. :meth:`for_blades` gives the blade evaluations' model.
     """
 
-    wall_treatment: str = "automatic"
-    constants: SSTConstants = SSTConstants()
-    production_measure: str = "strain"
-    omega_production: str = "unlimited"
-    alpha_k: float = 0.9
-    alpha_omega: float = 0.9
-    convection: str = "upwind"
-    limiter: str = "venkatakrishnan"
-    limiter_k: float = 5.0
-    solver: SolverSettings = field(default_factory=lambda: SolverSettings("gauss_seidel_to_tol", 0.1, 8))
-    k_floor: float = 1e-10
-    omega_floor: float = 1e-6
-    face_interpolation: str = "log_mean"
-    omega_wall_flux: str = "analytic"
-    velocity_gradient: str = "green_gauss_bounded"
+    wall_treatment: str = _opt("automatic", "SST wall treatment, solver.turbulence.WALL_TREATMENTS: automatic "
+                               "(y+-insensitive: Spalding's law of the wall blended with the sublayer) or low_re "
+                               "(resolved to the wall, first cell at y+ ~ 1) "
+                               "(docs/decisions/0009-sst-wall-treatment.md)")
+    constants: SSTConstants = _opt(SSTConstants(), "model constants (SST-2003)")
+    production_measure: str = _opt("strain", "S_P of the production terms, PRODUCTION_MEASURES: strain "
+                                   "(SST-2003) or vorticity (SST-V)")
+    omega_production: str = _opt("unlimited", "omega-equation production, OMEGA_PRODUCTIONS: unlimited (gamma "
+                                 "S_P²) or limited (gamma P~/nu_t, the k equation's production limiter carried "
+                                 "into the omega equation, as OpenFOAM's kOmegaSST) "
+                                 "(docs/decisions/0004-limited-omega-production.md)")
+    alpha_k: float = _opt(0.9, "implicit under-relaxation of the k equation, in (0, 1]")
+    alpha_omega: float = _opt(0.9, "implicit under-relaxation of the omega equation, in (0, 1]")
+    convection: str = _opt("upwind", "k and omega convection scheme, solver.assembly.CONVECTION_SCHEMES: upwind "
+                           "or linear_upwind (deferred correction, limited gradient)")
+    limiter: str = _opt("venkatakrishnan", "gradient limiter of linear_upwind, solver.gradient.LIMITERS")
+    limiter_k: float = _opt(5.0, "the limiter's K (Venkatakrishnan's eps² = (K h)³, h in m)")
+    solver: SolverSettings = _opt(doc="linear solver of the k and omega systems: symmetric Gauss-Seidel sweeps "
+                                  "until the residual falls by 0.1, at most 8",
+                                  factory=lambda: SolverSettings("gauss_seidel_to_tol", 0.1, 8))
+    k_floor: float = _opt(1e-10, "positivity floor of k, relative to the inlet k")
+    omega_floor: float = _opt(1e-6, "positivity floor of omega, relative to the inlet omega")
+    face_interpolation: str = _opt("log_mean", "face values of the diffusivities mu + sigma mu_t, "
+                                   "FACE_DIFFUSIVITIES: log_mean or linear")
+    omega_wall_flux: str = _opt("analytic", "omega flux between a wall cell (omega fixed) and the next cells, "
+                                "OMEGA_WALL_FLUXES: analytic (scaled by omega_flux_factor to carry the flux of the "
+                                "analytic near-wall omega) or two_point (unscaled, as OpenFOAM's "
+                                "omegaWallFunction) (docs/decisions/0009-sst-wall-treatment.md)")
+    velocity_gradient: str = _opt("green_gauss_bounded", "velocity gradient of the SST step's strain and vorticity, "
+                                  "VELOCITY_GRADIENTS: green_gauss_bounded (Green–Gauss on reconstructed faces, "
+                                  "each within its two cells' values), green_gauss or least_squares (the momentum "
+                                  "step's own) (docs/decisions/0005-sst-velocity-gradient.md)")
+
+    @classmethod
+    def for_blades(cls, **changes) -> Self:
+        """The blade evaluations' model (with ``changes``): the defaults with the limited omega production
+        (docs/decisions/0004-limited-omega-production.md)."""
+        return cls(**{**BLADE_DEFAULTS, **changes})
 
     def __post_init__(self):
         if self.wall_treatment not in WALL_TREATMENTS:
@@ -107,6 +94,10 @@ class SST:
     def setup(self, mesh: FVMesh, bnd: BoundaryData, rho: float, mu: float) -> SSTSetup:
         """Geometry and boundary data fixed for a mesh (wall distance, inlet k and omega)."""
         return build_setup(mesh, bnd, rho, mu, self.constants)
+
+
+#: The fields in which :meth:`SST.for_blades` differs from the defaults.
+BLADE_DEFAULTS = {"omega_production": "limited"}
 
 
 @dataclass(frozen=True, eq=False)

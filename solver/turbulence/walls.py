@@ -105,4 +105,4 @@ def automatic_wall(mesh: FVMesh, setup, u: np.ndarray, k: np.ndarray, nu: float,
 
 
 #: Wall treatments by name: ``f(mesh, setup, u, k, nu, rho, constants) -> WallValues``.
-WALL_TREATMENTS: dict[str, Callable] = {"low_re": low_re_wall, "automatic": automatic_wall}
+WALL_TREATMENTS: dict[str, Callable] = {"automatic": automatic_wall, "low_re": low_re_wall}

@@ -1,5 +1,5 @@
 """Campaign configuration: defaults, the resolved campaign, and malformed files whose error names the key,
-the file and the line (issue 12: "at least 30 malformed configs, each with the key and line")."""
+the file and the line (at least 30 malformed configs, each with the key and line)."""
 
 from __future__ import annotations
 
@@ -83,6 +83,42 @@ def test_unknown_key_lists_the_allowed_ones(tmp_path):
     path.write_text("algorithm:\n  pop: 10\n")
     with pytest.raises(ConfigError, match="allowed: population, generations, offspring, seed"):
         load_campaign(path)
+
+
+#: One key of every section of a campaign file, with a number where it takes one (``None``: no number).
+EVERY_SECTION = [
+    ("blade", "fixed", {"alpha": 1.0}), ("mesh", "y_plus", 1.0), ("flow", "speed", 10.0), ("solver", "alpha_u", 0.9),
+    ("convergence", "max_amplitude", 0.01), ("algorithm", "population", 10), ("algorithm.crossover", "eta", 15.0),
+    ("algorithm.mutation", "eta", 20.0), ("execution", "timeout", 60.0), ("execution.cluster", "cores", 1),
+    ("output", "sync", None), ("analytic", "delay", 0.0),
+]
+
+
+def _section_text(section: str, key: str, value: str) -> str:
+    """A campaign file setting ``section.key: value`` (nested sections indented)."""
+    lines, indent = [], ""
+    for part in section.split("."):
+        lines.append(f"{indent}{part}:")
+        indent += "  "
+    return "\n".join([*lines, f"{indent}{key}: {value}"]) + "\n"
+
+
+@pytest.mark.parametrize(("section", "key", "number"), EVERY_SECTION, ids=[s[0] for s in EVERY_SECTION])
+def test_every_section_refuses_the_same_way(tmp_path, section, key, number):
+    """One base (optimizer.config.Section) for every section: an unknown key names the allowed ones, a boolean
+    is not a number, nan and inf are not numbers; each message names the key, the file and the line."""
+    path = tmp_path / "c.yaml"
+    depth = section.count(".") + 2
+    path.write_text(_section_text(section, "colour", "red"))
+    with pytest.raises(ConfigError, match=rf"{path}:{depth}: unknown key '{section}.colour'; allowed: .*{key}"):
+        load_campaign(path)
+    if number is None or isinstance(number, dict):
+        return
+    for value, refusal in (("true", "a number is expected, not a boolean"), (".nan", "finite number"),
+                           (".inf", "finite number")):
+        path.write_text(_section_text(section, key, value))
+        with pytest.raises(ConfigError, match=rf"{path}:{depth}: '{section}.{key}': .*{refusal}"):
+            load_campaign(path)
 
 
 def test_bad_yaml_names_file_and_line(tmp_path):
