@@ -72,7 +72,7 @@ class Bound(NamedTuple):
 
 
 _DOMAIN = "a larger domain only adds far-field cells; the paper's is 5 / 10 / 5 chords"
-#: Ranges of the :class:`MeshSpec` fields (docs/errors.md shows this table). Lower bounds of the domain
+#: Ranges of the :class:`MeshSpec` fields (docs/reference/errors.md shows this table). Lower bounds of the domain
 #: extents are only ``> 0``: whether a domain holds the O-layer depends on the blade, and the mesher says so.
 BOUNDS: dict[str, Bound] = {
     "upstream": Bound(0.0, 100.0, "chords", _DOMAIN, open_lower=True),

@@ -282,11 +282,11 @@ class FlowConfig(Section):
         return self.speed * chord / self.kinematic_viscosity
 
 
-#: Chord Reynolds numbers each flow model was validated for (docs/solver.md, docs/turbulence.md,
-#: docs/naca0012.md): outside them a configuration runs with a :class:`ConfigWarning`. ``sst``: the channel
-#: at 1e5, the blades at 1e6, the flat plate at 5e6 / m and NACA 0012 at 6e6. ``laminar``: the cylinder
-#: at 20, the cavity at 100 and 1 000, NACA 0012 at 1 000 and 2 000; a blade's boundary layer is
-#: turbulent long before 1e5 anyway.
+#: Chord Reynolds numbers each flow model of :data:`solver.turbulence.MODELS` was validated for
+#: (docs/explanation/validation.md): outside them a configuration runs with a :class:`ConfigWarning`.
+#: ``sst``: the channel at 1e5, the blades at 1e6, the flat plate at 5e6 / m and NACA 0012 at 6e6.
+#: ``laminar``: the cylinder at 20, the cavity at 100 and 1 000, NACA 0012 at 1 000 and 2 000; a blade's
+#: boundary layer is turbulent long before 1e5 anyway.
 VALIDATED_REYNOLDS = {"sst": (1.0e5, 1.0e7), "laminar": (1.0, 2.0e3)}
 
 

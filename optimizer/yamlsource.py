@@ -7,7 +7,7 @@ its path (``("objectives", 0, "sense")``). :meth:`Source.where` turns the locati
 (a default, or a key added by an override) falls back to its nearest ancestor that does.
 
 What a document may be is bounded before any of it is built (each limit is documented in
-``docs/errors.md``): the file at most :data:`MAX_FILE_BYTES` of UTF-8 text, at most :data:`MAX_VALUES`
+``docs/reference/errors.md``): the file at most :data:`MAX_FILE_BYTES` of UTF-8 text, at most :data:`MAX_VALUES`
 values once YAML aliases are expanded (an alias bomb is refused, not built), nesting at most
 :data:`MAX_DEPTH` deep, no alias that contains itself, numbers of at most :data:`MAX_NUMBER_CHARS`
 characters, and no key twice in one mapping (the last one would silently win).

@@ -4,7 +4,7 @@ The pressure-correction matrix of a SIMPLE iteration keeps its sparsity pattern 
 change from one outer iteration to the next. A Ruge–Stüben set-up (strength of connection, C/F splitting,
 interpolation weights, then the Galerkin products ``A_c = R A P``) costs ~25 ms on a 16 641-cell blade mesh,
 half of it pyamg's Python; one V-cycle 1.5 ms. Rebuilding it every 10 solves and using it unchanged in
-between (the preconditioner of :func:`solver.linalg._amg_cg` before this module) left the fine-level smoother
+between left the fine-level smoother
 and every coarse operator up to 9 outer iterations old.
 
 :class:`GalerkinHierarchy` keeps the interpolation ``P`` of each level of a pyamg hierarchy and re-forms the
@@ -14,7 +14,7 @@ fixed linear map of ``A``'s stored values, ``A_c.data = G A.data`` with ``G[(I, 
 at 16 641 cells) instead of a set-up. On the benchmark blade at medium, with the first system's interpolation
 kept for the whole solve, the pressure solves took 3.2 CG iterations after the first 10 (at most 4) against
 3.3 with the whole hierarchy rebuilt every 10 solves, and 31 set-ups (0.70 s CPU) became one
-(docs/performance.md, session 5).
+(docs/decisions/0012-pressure-amg.md).
 """
 
 from __future__ import annotations

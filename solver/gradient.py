@@ -169,7 +169,7 @@ def _venkatakrishnan_wang(mesh, phi, phi_b, grad, k):
     the field's unit, so how strongly it limits depends on the units and the scale of the problem; in
     the leading-edge boundary layer of the NACA 0012 case (c = 1 m, U = 1 m/s, h = √area of the thin
     wall cells) it is ~1e-4 U against neighbour differences of ~0.1 U, a min-max limiter there
-    (docs/validation-naca0012-sessions.md, "Findings (session 3)", item 5), and on the blades (C0 = 10 m/s,
+    (docs/explanation/validation.md), and on the blades (C0 = 10 m/s,
     chord ~0.1 m) relatively stronger still. Wang's ``eps`` is a fraction of the field's own range: ``psi`` is
     unchanged when the field is scaled or offset (any unit, any speed) and when the mesh is scaled (any
     length unit); differences between neighbours well below ``eps`` (smooth, resolved variation: the outer
@@ -323,7 +323,7 @@ def green_gauss_linear_gradient(mesh: FVMesh, phi: np.ndarray, phi_b: np.ndarray
     ``Gauss linear``; ``grad`` is not used). Not exact on skewed meshes (the face centre is off the P-N line),
     but its face values depend on the two cells alone: the corrected values of :func:`green_gauss_gradient`
     bring in the neighbours' gradients, and as the momentum source's pressure gradient they made table5's
-    nose a limit cycle that OpenFOAM does not have (docs/validation-blades.md, session 10)."""
+    nose a limit cycle that OpenFOAM does not have (docs/decisions/0006-green-gauss-relaxation.md)."""
     return gauss_sum(mesh, np.concatenate([interpolate_linear(mesh, phi), phi_b]))
 
 

@@ -213,7 +213,7 @@ def _gauss_seidel_to_tol(system: LinearSystem, tol: float = 0.1, maxiter: int = 
     Why: the k and omega systems of a blade evaluation reach ``tol`` = 0.1 after 1.6-2.9 sweeps on average
     (random blades 0 and 1 and the benchmark blade, coarse and medium), where :func:`_gauss_seidel` always
     does its ``maxiter`` (8), a tenth of an outer iteration at coarse. The k and omega solver of
-    :class:`solver.turbulence.SST` since session 7 (docs/performance.md, "Time to converged lift (session 7)")."""
+    :class:`solver.turbulence.SST` (docs/explanation/performance.md)."""
     from .kernels import csr_residual, gauss_seidel_sweeps
 
     x = np.array(system.x0, dtype=float)

@@ -64,7 +64,7 @@ def face_velocity(mesh: FVMesh, u: np.ndarray, u_b: np.ndarray, grad_u: np.ndarr
     stagnation line, a cell's gradient extrapolated to the face centre overshoots both cells' velocities (on the
     NACA 0012 coarse C-mesh by up to 0.10 U∞ across the boundary-layer rows at the trailing edge and 0.16 U∞ at
     the nose); at the trailing edge this removes the loading and raised the lift 1.1-1.75 % above OpenFOAM's
-    at 2°-8° on the same mesh (bounded: 0.8-1.0 %; docs/validation-naca0012-sessions.md, sessions 8 and 13).
+    at 2°-8° on the same mesh (bounded: 0.8-1.0 %; docs/decisions/0002-bounded-face-velocity.md).
     Clipping keeps the correction wherever it does not overshoot, so the leading edge keeps the pressure drag of the
     published reference, which OpenFOAM's plain linear face velocity does not (TMR 10° C_D +13 %).
     """

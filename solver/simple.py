@@ -80,14 +80,10 @@ ALGORITHMS: dict[str, Callable[[np.ndarray, MomentumSystem], np.ndarray]] = {
 #: Pressure gradients of the momentum source by name: ``f(mesh, p, p_b, grad_p_ls) -> (nc, 2)`` Pa/m; the
 #: least-squares gradient itself, or Green–Gauss on skewness-corrected face values
 #: (:func:`solver.gradient.green_gauss_gradient`), the same with each face value kept within its two cells'
-#: values (``green_gauss_bounded``: at a G0 blade's corner nose the unbounded reconstruction put C_max 58 %
-#: above OpenFOAM's on the same mesh, docs/validation-blades.md, session 12), or on plain linear ones
-#: (:func:`solver.gradient.green_gauss_linear_gradient`, OpenFOAM's ``Gauss linear``). The same gradient is
-#: the cell gradient of the Rhie–Chow interpolation (:func:`outer_iteration`, step 3): with Green–Gauss in
-#: the momentum source and least squares in Rhie–Chow, the face flux kept ``D̄ (ḡ_LS - ḡ_GG)·e``, a pressure
-#: term the p' equation does not see, and on the fine NACA 0012 C-mesh at 10° a pressure/v mode grew from
-#: ~2 500 iterations in the band of 30-53° non-orthogonal cells 0.2-0.6 chords above the suction side
-#: (docs/validation-naca0012-sessions.md, "The Green–Gauss pressure gradient on the fine mesh (session 6)").
+#: values (``green_gauss_bounded``), or on plain linear ones (:func:`solver.gradient.green_gauss_linear_gradient`,
+#: OpenFOAM's ``Gauss linear``). The same gradient is the cell gradient of the Rhie–Chow interpolation
+#: (:func:`outer_iteration`, step 3), so that the face flux keeps no pressure term the p' equation does not see.
+#: docs/decisions/0001-blade-pressure-gradient.md.
 PRESSURE_GRADIENTS: dict[str, Callable] = {
     "least_squares": lambda mesh, p, p_b, grad_p: grad_p,
     "green_gauss": green_gauss_gradient,

@@ -4,7 +4,7 @@ Each module of :data:`COMMANDS` has ``register(subparsers)``, which adds its com
 ``run(args) -> exit status`` default; a new command group is one module and one entry here.
 :mod:`optimizer.cli.common` holds what they share.
 
-Exit status (``docs/errors.md``): 0 success, 2 bad input (configuration, override, option, output location;
+Exit status (``docs/reference/errors.md``): 0 success, 2 bad input (configuration, override, option, output location;
 refused before any stage runs), 3 the blade is infeasible (its constraints are printed; files are still
 written when the profile could be built), 4 a stage failed (the mesh could not be built or is below the
 quality thresholds, the flow solve diverged, an output could not be written; the reason is printed).
@@ -63,7 +63,7 @@ def _parser() -> argparse.ArgumentParser:
         prog="millfoil",
         description="Multi-objective shape optimisation of hydraulic blade profiles, designed directly or "
         "through the milling tool path that machines them (Vessaz et al. 2013).",
-        epilog="Exit status: 0 success, 2 bad input, 3 infeasible blade, 4 a stage failed (docs/errors.md).",
+        epilog="Exit status: 0 success, 2 bad input, 3 infeasible blade, 4 a stage failed (docs/reference/errors.md).",
         formatter_class=HelpFormatter,
     )
     sub = parser.add_subparsers(title="commands", metavar="COMMAND")

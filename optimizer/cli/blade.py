@@ -32,7 +32,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         "  millfoil profile                                     # Table 4 C2 design blade\n"
         "  millfoil profile configs/examples/table5_g1_toolpath.yaml --plot table5.png\n"
         "  millfoil profile my.yaml --set alpha=20 --set blade.continuity=G1 --out blade.csv\n"
-        "Parameters and their units: docs/geometry.md.",
+        "Parameters and their units: docs/explanation/geometry.md.",
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     config_arguments(profile)

@@ -8,12 +8,13 @@ import sys
 import textwrap
 from pathlib import Path
 
+from meshing import LEVELS
 from optimizer.config import Config, load_config
 
 #: Exit statuses: success, bad input (configuration, override, file), infeasible blade, a stage failed.
 EXIT_OK, EXIT_INPUT, EXIT_INFEASIBLE, EXIT_FAILED = 0, 2, 3, 4
-#: Mesh resolution levels a command accepts on ``--level``.
-LEVEL_CHOICES = ("coarse", "medium", "fine")
+#: Mesh resolution levels a command accepts on ``--level``: :data:`meshing.LEVELS`.
+LEVEL_CHOICES = tuple(LEVELS)
 
 
 def config_arguments(parser: argparse.ArgumentParser) -> None:

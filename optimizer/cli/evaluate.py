@@ -37,7 +37,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         "  millfoil evaluate configs/examples/bench_g1_design.yaml --level coarse\n"
         "  millfoil evaluate my.yaml --set solver.model=laminar --set flow.speed=0.2 --json\n"
         "  millfoil evaluate my.yaml --save runs/one   # mesh.msh fields.vtu wall.csv result.json config.yaml\n"
-        "What is computed and how: docs/evaluation.md.",
+        "What is computed and how: docs/explanation/evaluation.md.",
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     config_arguments(parser)

@@ -36,7 +36,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         "  millfoil export runs/tp_g1 --id 57 --format sinumerik\n"
         "  millfoil export runs/tp_g1 --id 57 --format linuxcnc --feed 400 --depth -8 --out blade.ngc\n"
         "  millfoil export --config configs/examples/table5_g1_toolpath.yaml --format dxf\n"
-        "Formats, manuals and the verification: docs/nc-export.md.",
+        "Formats, manuals and the verification: docs/how-to/export-nc-programs.md.",
     )
     p.add_argument("directory", nargs="?", type=Path, metavar="RUN", help="run directory of a campaign")
     p.add_argument("--id", dest="ident", metavar="N", help="design number (as in the report) or key prefix")

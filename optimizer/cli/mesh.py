@@ -24,7 +24,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         epilog="Examples:\n"
         "  millfoil mesh --level coarse --plot mesh.png\n"
         "  millfoil mesh configs/examples/table5_g1_toolpath.yaml --out mesh.msh --set mesh.upstream=8\n"
-        "Mesh options (the 'mesh:' section): docs/meshing.md.",
+        "Mesh options (the 'mesh:' section): docs/explanation/meshing.md.",
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     config_arguments(mesh)

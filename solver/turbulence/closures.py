@@ -124,7 +124,7 @@ def omega_flux_factor(y1: np.ndarray, y2: np.ndarray, yf: np.ndarray, weight_log
     ``omega ~ 1/y²`` (viscous sublayer) ``2 y1² y2² / (yf³ (y1 + y2))`` and for ``omega ~ 1/y`` (log layer)
     ``y1 y2 / yf²``, blended with ``weight_log`` in [0, 1]; clipped to [0.1, 1]. It is about 0.63 for the
     usual first two cells (y2 ~ 3 y1): the plain difference puts 1.6 times too much omega into the second
-    cell, which under-predicts c_f by 5 % on a flat plate with first-cell y+ ~ 3 (docs/turbulence.md)."""
+    cell, which under-predicts c_f by 5 % on a flat plate with first-cell y+ ~ 3 (docs/explanation/turbulence.md)."""
     phi_vis = 2.0 * y1**2 * y2**2 / (yf**3 * (y1 + y2))
     phi_log = y1 * y2 / yf**2
     return np.clip((1.0 - weight_log) * phi_vis + weight_log * phi_log, 0.1, 1.0)
