@@ -22,7 +22,8 @@ A campaign file is a configuration file (``blade:``, ``mesh:``, ``flow:``, ``sol
     ``prob`` null: 1 / number of design variables), ``initial_draws`` (rejection-sampling budget per member
     of the feasible initial population).
 ``execution:``
-    where evaluations run (:class:`ExecutionConfig`, the backends of :data:`optimizer.campaign.runner.RUNNERS`).
+    where evaluations run (:class:`optimizer.campaign.runner.ExecutionConfig`, beside the registry of backends
+    whose names it takes).
 ``output:``
     ``directory``: the run directory (store, resolved config), relative to the working directory.
 ``analytic:``
@@ -41,7 +42,7 @@ from typing import Any, Literal
 import yaml
 from pydantic import Field, ValidationError, field_validator, model_validator
 
-from optimizer.campaign.runner import RUNNERS
+from optimizer.campaign.runner import ClusterOptions, ExecutionConfig, walltime_seconds
 from optimizer.config import (
     Config,
     ConfigError,
@@ -54,6 +55,10 @@ from optimizer.config import (
     set_values,
 )
 from optimizer.yamlsource import Source
+
+__all__ = ["ANALYTIC", "FIGURES", "MONITOR_OF", "AlgorithmConfig", "AnalyticConfig", "CampaignConfig", "ClusterOptions",
+           "ConvergencePolicy", "Crossover", "ExecutionConfig", "FigureConstraint", "Mutation", "Objective",
+           "OutputConfig", "check_campaign", "load_campaign", "walltime_seconds"]
 
 #: Figures of :class:`optimizer.evaluate.Evaluation` that can be objectives or constraints, with units.
 FIGURES: dict[str, str] = {
@@ -180,135 +185,6 @@ class AnalyticConfig(Section):
     variables: int = Field(6, ge=2, le=100, description="number of design variables, each in [0, 1]")
     delay: float = Field(0.0, ge=0, description="seconds each evaluation sleeps (to test parallel execution, "
                          "timeouts and interruption), s", json_schema_extra={"unit": "s"})
-
-
-_WALLTIME = re.compile(r"^(?:(\d+)-)?(\d+):(\d{2})(?::(\d{2}))?$")
-
-
-def walltime_seconds(walltime: str) -> float:
-    """Seconds of a SLURM/PBS wall time ``[D-]HH:MM[:SS]`` (``"01:30:00"`` → 5400.0)."""
-    m = _WALLTIME.match(walltime.strip())
-    if not m:
-        raise ValueError(f"walltime {walltime!r} is not [D-]HH:MM[:SS]")
-    days, hours, minutes, seconds = (int(g) if g else 0 for g in m.groups())
-    return float(((days * 24 + hours) * 60 + minutes) * 60 + seconds)
-
-
-def _timedelta_seconds(value: str) -> float:
-    """Seconds of a dask time string (``"55m"``, ``"1h"``, ``"90s"``)."""
-    from dask.utils import parse_timedelta
-
-    try:
-        return float(parse_timedelta(value))
-    except (ValueError, KeyError, TypeError) as exc:
-        raise ValueError(f"{value!r} is not a duration such as '50m', '1h' or '90s'") from exc
-
-
-class ClusterOptions(Section):
-    """Options of a ``dask-jobqueue`` cluster (``execution.cluster``; used by backends ``slurm``, ``pbs``).
-
-    One job (named ``job_name`` in ``squeue``) runs ``processes`` single-threaded workers on ``cores`` cores
-    (``processes`` defaults to ``cores``). ``log_directory`` receives the jobs' output (default: the
-    directory the campaign was started from); ``job_script_prologue`` lines run before the worker starts
-    (``module load ...``, ``source venv/bin/activate``); ``job_extra_directives`` are added as
-    ``#SBATCH``/``#PBS`` lines (``--constraint=...``, ``-l select=...``).
-
-    Workers retire after ``lifetime`` ± ``lifetime_stagger`` (dask durations such as ``"50m"``), before the
-    scheduler's wall time kills the job, and the runner starts a new job in their place; an evaluation cut
-    by a retirement is resubmitted (it costs a retry: keep ``lifetime`` well above ``execution.timeout``).
-    Defaults: with ``m = min(5 min, walltime / 10)``, ``lifetime = walltime - 2 m`` and
-    ``lifetime_stagger = m``, so workers leave between ``walltime - 3 m`` and ``walltime - m``.
-    """
-
-    queue: str | None = Field(None, description="queue (SLURM partition) of the jobs; null: the scheduler's "
-                              "default")
-    account: str | None = Field(None, description="account the jobs are charged to; null: the user's default")
-    walltime: str = Field("01:00:00", description="wall time of each job, [D-]HH:MM[:SS]")
-    cores: int = Field(1, ge=1, description="cores per job")
-    processes: int | None = Field(None, ge=1, description="single-threaded worker processes per job (cores must "
-                                  "be a multiple of it); null: cores")
-    memory: str = Field("4GiB", description="memory per job, e.g. 4GiB")
-    job_extra_directives: tuple[str, ...] = Field((), description="extra #SBATCH/#PBS lines, e.g. "
-                                                  "--constraint=...")
-    job_script_prologue: tuple[str, ...] = Field((), description="shell lines run before the worker starts (module "
-                                                 "load ..., source venv/bin/activate)")
-    local_directory: str | None = Field(None, description="the workers' scratch directory on the nodes; null: "
-                                        "dask's default")
-    log_directory: str | None = Field(None, description="directory of the jobs' output; null: the directory the "
-                                      "campaign was started from")
-    interface: str | None = Field(None, description="network interface of the workers, e.g. ib0; null: dask's "
-                                  "default")
-    python: str | None = Field(None, description="Python interpreter of the workers; null: this one")
-    lifetime: str | None = Field(None, description="a worker retires after this dask duration (50m, 1h); null: "
-                                 "walltime - 2 min(5 min, walltime / 10)")
-    lifetime_stagger: str | None = Field(None, description="spread of the workers' retirements (a dask "
-                                         "duration); null: min(5 min, walltime / 10)")
-    job_name: str = Field("millfoil-worker", description="name of the jobs (as squeue shows it)")
-
-    @field_validator("walltime")
-    @classmethod
-    def _walltime_format(cls, value: str) -> str:
-        walltime_seconds(value)
-        return value
-
-    @field_validator("lifetime", "lifetime_stagger")
-    @classmethod
-    def _duration_format(cls, value: str | None) -> str | None:
-        if value is not None:
-            _timedelta_seconds(value)
-        return value
-
-    @model_validator(mode="after")
-    def _consistent(self) -> ClusterOptions:
-        if self.cores % self.worker_processes:
-            raise ValueError(f"cores ({self.cores}) must be a multiple of processes ({self.processes})")
-        lifetime, stagger = self.lifetimes_s()
-        if lifetime + stagger >= walltime_seconds(self.walltime):
-            raise ValueError(f"lifetime + lifetime_stagger ({lifetime:g} s + {stagger:g} s) must be shorter than "
-                             f"walltime {self.walltime!r}, or workers are killed by the wall time")
-        return self
-
-    @property
-    def worker_processes(self) -> int:
-        """Worker processes per job (single-threaded workers: ``cores`` unless set)."""
-        return self.processes or self.cores
-
-    def lifetimes_s(self) -> tuple[float, float]:
-        """(lifetime, stagger) of a worker in seconds, the defaults derived from the wall time."""
-        margin = min(300.0, walltime_seconds(self.walltime) / 10)
-        stagger = _timedelta_seconds(self.lifetime_stagger) if self.lifetime_stagger else margin
-        lifetime = (_timedelta_seconds(self.lifetime) if self.lifetime
-                    else walltime_seconds(self.walltime) - 2 * margin)
-        return lifetime, stagger
-
-
-class ExecutionConfig(Section):
-    """``execution:`` — where and how a campaign's evaluations run (:mod:`optimizer.campaign.runner`)."""
-
-    backend: Literal[tuple(RUNNERS)] = Field("local", description="where evaluations run, "
-                                             "optimizer.campaign.runner.RUNNERS: inline (this process, one after "
-                                             "the other), local (one worker process per core), scheduler (an "
-                                             "existing dask scheduler), slurm or pbs (dask-jobqueue jobs)")
-    workers: int | None = Field(None, ge=1, description="worker processes (local; null: one per core) or jobs "
-                                "(slurm, pbs; null: 1)")
-    timeout: float = Field(1800.0, gt=0, description="seconds an evaluation may run on a worker, s",
-                           json_schema_extra={"unit": "s"})
-    retries: int = Field(2, ge=0, description="times an evaluation lost with its worker is resubmitted before it "
-                         "is recorded worker_lost")
-    timeout_grace: float = Field(60.0, ge=0, description="seconds a worker may keep running a timed-out "
-                                 "evaluation before it is restarted, s", json_schema_extra={"unit": "s"})
-    address: str | None = Field(None, description="the dask scheduler's address (backend scheduler only), e.g. "
-                                "tcp://10.0.0.1:8786")
-    cluster: ClusterOptions = Field(ClusterOptions(), description="the dask-jobqueue cluster (backends slurm, "
-                                    "pbs)")
-
-    @model_validator(mode="after")
-    def _address_for_scheduler_only(self) -> ExecutionConfig:
-        if self.backend == "scheduler" and not self.address:
-            raise ValueError("backend 'scheduler' needs address (e.g. 'tcp://host:8786')")
-        if self.backend != "scheduler" and self.address:
-            raise ValueError(f"address is used by backend 'scheduler' only, not {self.backend!r}")
-        return self
 
 
 class CampaignConfig(Config):

@@ -1,4 +1,4 @@
-"""Limits of a mesh specification (issue 11, "bound what the inputs drive"): every field in its range, the
+"""Limits of a mesh specification (bound what the inputs drive): every field in its range, the
 chord Reynolds number, the first cell within the O-layer and the estimated cell count within the budget;
 each refusal names the field, the value, the range and why."""
 

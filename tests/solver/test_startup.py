@@ -44,7 +44,7 @@ def test_start_up_off(monkeypatch):
 
 def test_start_up_pressure_relaxation(monkeypatch):
     """``startup_alpha_p``: the start-up's iterations apply it, ``alpha_p`` is applied after them (the
-    default: 1, then 0.7: docs/validation-blades.md, session 12); None keeps ``alpha_p`` throughout, and so
+    blades: 1, then 0.7: docs/decisions/0001-blade-pressure-gradient.md); None keeps ``alpha_p`` throughout, and so
     does SIMPLE, which needs its small ``alpha_p`` from the first iteration."""
     seen, real = [], simple.outer_iteration
 

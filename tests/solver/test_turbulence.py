@@ -31,8 +31,8 @@ from solver.turbulence import (
 from solver.validation.meshes import square_mesh
 from solver.walldistance import segment_distance, wall_distance
 
-#: The solver settings these tests were written with (SimpleSettings' defaults before issue 10 made the blade
-#: evaluation's SIMPLE, 0.7, 0.3 the defaults): SIMPLEC, alpha_u 0.8, alpha_p 1, no early stop on stalled residuals.
+#: The solver settings these tests were written with (not SimpleSettings' defaults): SIMPLEC, alpha_u 0.8,
+#: alpha_p 1, no early stop on stalled residuals.
 SIMPLEC = dict(algorithm="simplec", alpha_u=0.8, alpha_p=1.0, stall_tol=None)
 
 C = SSTConstants()

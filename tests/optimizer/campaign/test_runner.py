@@ -16,13 +16,15 @@ import time
 import pytest
 from pydantic import ValidationError
 
-from optimizer.campaign.config import ClusterOptions, ExecutionConfig, walltime_seconds
 from optimizer.campaign.runner import (
     RUNNERS,
+    ClusterOptions,
     DaskRunner,
+    ExecutionConfig,
     InlineRunner,
     Task,
     make_runner,
+    walltime_seconds,
 )
 
 #: Events the in-process workers' evaluations wait on, by name (the worker threads share this module).
