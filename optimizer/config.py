@@ -29,10 +29,12 @@ from pydantic import (
     Field,
     ValidationError,
     ValidationInfo,
+    ValidatorFunctionWrapHandler,
     create_model,
     field_validator,
     model_validator,
 )
+from pydantic_core import PydanticCustomError
 
 from geometry import BladeSpec, Continuity, Mode, ParameterError, ParameterSpace
 from geometry.examples import TABLE4_C2_DESIGN
@@ -90,14 +92,18 @@ class Section(BaseModel):
 
     model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
-    @model_validator(mode="before")
+    @model_validator(mode="wrap")
     @classmethod
-    def _known_keys(cls, data: Any) -> Any:
-        if isinstance(data, Mapping):
-            unknown = [key for key in data if key not in cls.model_fields]
-            if unknown:
-                raise UnknownKeys(unknown, tuple(cls.model_fields))
-        return data
+    def _unknown_keys_name_the_allowed(cls, data: Any, handler: ValidatorFunctionWrapHandler) -> Any:
+        """pydantic's ``extra_forbidden`` errors of this section's own keys as ``unknown_key`` errors whose
+        message names the allowed keys (every other error kept, so that all are reported at once)."""
+        try:
+            return handler(data)
+        except ValidationError as exc:
+            errors = exc.errors()
+            if not any(e["type"] == "extra_forbidden" and len(e["loc"]) == 1 for e in errors):
+                raise
+            raise ValidationError.from_exception_data(cls.__name__, [_unknown_key(cls, e) for e in errors]) from None
 
     @field_validator("*", mode="before")
     @classmethod
@@ -110,13 +116,19 @@ class Section(BaseModel):
         return v
 
 
-class UnknownKeys(ValueError):
-    """Keys a section does not have; ``keys``: them, ``allowed``: the section's keys."""
-
-    def __init__(self, keys: Sequence[Any], allowed: Sequence[str]):
-        self.keys, self.allowed = tuple(keys), tuple(allowed)
-        names = ", ".join(f"'{shorten(k) if not isinstance(k, str) else _short_key(k)}'" for k in self.keys)
-        super().__init__(f"unknown key{'s' * (len(self.keys) > 1)} {names}; allowed: {', '.join(self.allowed)}")
+def _unknown_key(section: type[BaseModel], error: Mapping[str, Any]) -> Any:
+    """``error`` (of :meth:`ValidationError.errors`) ready to be raised again: an unknown key of ``section``
+    itself as an ``unknown_key`` error naming the allowed keys, one of a nested section rebuilt as such."""
+    if error["type"] == "extra_forbidden" and len(error["loc"]) == 1:
+        key = error["loc"][0]
+        name = _short_key(key) if isinstance(key, str) else shorten(key)
+        ctx = {"text": f"unknown key '{name}'; allowed: {', '.join(section.model_fields)}",
+               "allowed": ", ".join(section.model_fields)}
+    elif error["type"] == "unknown_key":
+        ctx = error["ctx"]
+    else:
+        return error
+    return {"type": PydanticCustomError("unknown_key", "{text}", ctx), "loc": error["loc"], "input": error["input"]}
 
 
 def _wants_number(annotation: Any) -> bool:
@@ -631,15 +643,11 @@ def explain(exc: ValidationError, schema: type[BaseModel], source: Source | None
         error = (err.get("ctx") or {}).get("error")
         loc = (*loc, *getattr(error, "path", ()))             # where below the field (e.g. a boolean)
         msg = err["msg"].removeprefix("Value error, ")
-        if isinstance(error, UnknownKeys):                    # every section's own check of its keys
-            for key in error.keys:
-                at = f"{source.where((*loc, key))}: " if source is not None else ""
-                where = ".".join(str(p) for p in (*loc, key))
-                lines.append(f"{at}unknown key '{where}'; allowed: {', '.join(error.allowed)}")
-            continue
         where = ".".join(str(p) for p in loc)
         at = f"{source.where(loc)}: " if source is not None else ""
-        if err["type"] == "extra_forbidden":
+        if err["type"] == "unknown_key":
+            lines.append(f"{at}unknown key '{where}'; allowed: {err['ctx']['allowed']}")
+        elif err["type"] == "extra_forbidden":
             allowed = _allowed_keys(schema, loc[:-1])
             lines.append(f"{at}unknown key '{where}'; allowed: {', '.join(allowed)}")
         elif err["type"] in ("enum", "literal_error"):

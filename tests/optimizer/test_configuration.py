@@ -208,3 +208,30 @@ def test_generated_solver_keys_are_validated_with_the_key_named(override, messag
         load_config(overrides=[override])
     assert load_config(overrides=["solver.Limiter=Barth_Jespersen".lower()]).solver.limiter == "barth_jespersen"
     assert load_config(overrides=["solver.alpha_p=null"]).solver.alpha_p is None
+
+
+def test_every_section_is_on_the_one_frozen_base():
+    """Every section model reachable from the campaign schema derives from :class:`optimizer.config.Section`
+    (frozen, unknown keys, booleans and non-finite numbers refused the same way)."""
+    import typing
+
+    from pydantic import BaseModel
+
+    from optimizer.campaign.config import CampaignConfig
+    from optimizer.config import Section
+
+    seen, todo = set(), [CampaignConfig]
+    while todo:
+        model = todo.pop()
+        if model in seen:
+            continue
+        seen.add(model)
+        assert issubclass(model, Section), model.__name__
+        for info in model.model_fields.values():
+            args = [info.annotation, *typing.get_args(info.annotation)]
+            args += [a for arg in list(args) for a in typing.get_args(arg)]
+            todo += [a for a in args if isinstance(a, type) and issubclass(a, BaseModel)]
+    assert {m.__name__ for m in seen} >= {"BladeConfig", "MeshConfig", "FlowConfig", "SolverConfig", "Objective",
+                                          "FigureConstraint", "ConvergencePolicy", "AlgorithmConfig", "Crossover",
+                                          "Mutation", "ExecutionConfig", "ClusterOptions", "OutputConfig",
+                                          "AnalyticConfig"}
