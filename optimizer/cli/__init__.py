@@ -24,7 +24,7 @@ from optimizer.cli.common import EXIT_FAILED, EXIT_INFEASIBLE, EXIT_INPUT, EXIT_
 from optimizer.config import ConfigError, ConfigWarning
 from optimizer.saving import WriteFailure
 
-__all__ = ["COMMANDS", "EXIT_FAILED", "EXIT_INFEASIBLE", "EXIT_INPUT", "EXIT_OK", "main"]
+__all__ = ["COMMANDS", "build_parser", "EXIT_FAILED", "EXIT_INFEASIBLE", "EXIT_INPUT", "EXIT_OK", "main"]
 
 #: Command modules, in the order of ``millfoil --help``.
 COMMANDS = (blade, mesh, evaluate, validate, campaign, report, export)
@@ -32,7 +32,7 @@ COMMANDS = (blade, mesh, evaluate, validate, campaign, report, export)
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run ``millfoil`` with ``argv`` (default: the process's arguments); returns the exit status."""
-    parser = _parser()
+    parser = build_parser()
     args = parser.parse_args(argv)
     if not hasattr(args, "run"):
         parser.print_help()
@@ -58,7 +58,8 @@ def _show_warning(message, category, filename, lineno, file=None, line=None) -> 
         print(warnings.formatwarning(message, category, filename, lineno, line), end="", file=file or sys.stderr)
 
 
-def _parser() -> argparse.ArgumentParser:
+def build_parser() -> argparse.ArgumentParser:
+    """The ``millfoil`` parser: every command of :data:`COMMANDS` (docs/reference/cli.md is generated from it)."""
     parser = argparse.ArgumentParser(
         prog="millfoil",
         description="Multi-objective shape optimisation of hydraulic blade profiles, designed directly or "
