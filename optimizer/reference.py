@@ -169,7 +169,7 @@ def cli_markdown() -> str:
              _prose(root.epilog or ""), ""]
     lines += ["| command | what it does |", "| --- | --- |"]
     commands = list(_commands(root))
-    for name, _command, summary in commands:
+    for name, _parser, summary in commands:
         lines.append(f"| [`millfoil {name}`](#millfoil-{name}) | {_cell(summary)} |")
     lines.append("")
     for name, command, _summary in commands:
