@@ -1,6 +1,6 @@
-"""Hostile input, class by class (issue 11): each gets one clear message, a bounded cost and no lost work.
+"""Hostile input, class by class: each gets one clear message, a bounded cost and no lost work.
 
-Exit statuses are the documented ones (docs/errors.md): 2 bad input, 3 infeasible, 4 a stage failed. The
+Exit statuses are the documented ones (docs/reference/errors.md): 2 bad input, 3 infeasible, 4 a stage failed. The
 fuzzer over all classes together is ``test_hardening_fuzz.py``.
 """
 
@@ -44,13 +44,12 @@ def bomb(levels: int, width: int = 9) -> str:
 
 @pytest.mark.parametrize("levels", [3, 5, 9, 30])
 def test_an_alias_bomb_is_refused_before_it_is_built(levels, tmp_path, capsys):
-    start = time.perf_counter()
+    """30 levels expand to 9**30 values: built, the test could not end; refused, it ends at once."""
     err = error_of(["profile", write(tmp_path, bomb(levels))], capsys)
     if 9**levels > MAX_VALUES:
         assert f"expands to more than {MAX_VALUES} values" in err and len(err) < 300
     else:       # within the limit: an ordinary error, its input shortened
         assert "'blade.parameters.alpha': Input should be a valid number" in err and len(err) < 1000
-    assert time.perf_counter() - start < 2
 
 
 @pytest.mark.parametrize("text,message", ids=["alias-seq", "alias-map", "deep-flow", "deep-block", "digits"],
@@ -200,10 +199,14 @@ def test_an_override_that_is_not_yaml_names_the_override(override, message, caps
     (["--tolerance=-1e-6"], "--tolerance -1e-06 m is outside"),
     (["--set", "L=10", "--tolerance", "1e-8"], "outside [1e-07, 0.1] m"),
 ])
-def test_inputs_that_cannot_be_computed_are_refused_up_front_with_the_reason(argv, message, capsys):
-    start = time.perf_counter()
+def test_inputs_that_cannot_be_computed_are_refused_up_front_with_the_reason(argv, message, capsys, monkeypatch):
+    import optimizer.cli.blade
+
+    def never(*args, **kwargs):
+        raise AssertionError("the blade was built before the input was refused")
+
+    monkeypatch.setattr(optimizer.cli.blade, "build_blade", never)
     assert message in error_of(["profile", *argv], capsys)
-    assert time.perf_counter() - start < 2
 
 
 @pytest.mark.slow
@@ -295,22 +298,22 @@ def test_mesh_messages_have_no_numpy_reprs(capsys):
 def test_domains_in_the_docs_are_the_accepted_ones():
     from geometry import parameters_of
 
-    table = (Path(__file__).parents[2] / "docs" / "geometry.md").read_text()
+    table = (Path(__file__).parents[2] / "docs" / "explanation" / "geometry.md").read_text()
     for name in ("alpha", "beta1", "beta1bar", "L"):
         lo, hi = parameters_of("design", "G0")[name].domain
         shown = f"[{lo:g}, {hi:g}]".replace("-", "−")
         assert f"| {name} |" in table and shown in table.split(f"| {name} |")[1].split("\n")[0], name
 
 
-def test_every_limit_is_in_docs_errors():
+def test_every_limit_is_in_the_errors_reference():
     from geometry.parameters import MAX_LENGTH, MIN_CHORD
     from optimizer.cli.blade import TOLERANCE_RANGE
 
-    doc = (Path(__file__).parents[2] / "docs" / "errors.md").read_text()
+    doc = (Path(__file__).parents[2] / "docs" / "reference" / "errors.md").read_text()
     for value in (MAX_VALUES, MAX_DEPTH, MAX_NUMBER_CHARS, MAX_FILE_BYTES // 1024, MAX_LENGTH, MIN_CHORD,
                   *TOLERANCE_RANGE):
         assert f"{value:g}" in doc, value
-    assert "](errors.md)" in (Path(__file__).parents[2] / "docs" / "index.md").read_text()
+    assert "](reference/errors.md)" in (Path(__file__).parents[2] / "docs" / "index.md").read_text()
 
 
 def test_the_shipped_configurations_pass_the_new_checks():

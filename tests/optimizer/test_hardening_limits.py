@@ -1,6 +1,5 @@
-"""Limits of the mesh, flow and solver values (issue 11, class 5: "bound or scale what the inputs drive,
-and refuse what cannot be computed, up front, with the reason"); the fuzzer's corpus of them is
-``test_hardening_fuzz.py::LIMITS``."""
+"""Limits of the mesh, flow and solver values: what the inputs drive is bounded or scaled, and what cannot be
+computed is refused up front, with the reason; the fuzzer's corpus of them is ``test_hardening_fuzz.py::LIMITS``."""
 
 from pathlib import Path
 
@@ -18,7 +17,11 @@ from optimizer.config import (
     range_error,
 )
 
-DOC = (Path(__file__).parents[2] / "docs" / "errors.md").read_text()
+DOCS = Path(__file__).parents[2] / "docs" / "reference"
+#: The limits that span several keys (Reynolds number, cell budget, validated ranges).
+DOC = (DOCS / "errors.md").read_text()
+#: Every key's own range, generated from the schema (optimizer.reference).
+KEYS = (DOCS / "configuration.md").read_text()
 
 
 def _range_text(section: str, key: str, model) -> str:
@@ -27,14 +30,20 @@ def _range_text(section: str, key: str, model) -> str:
         "F", (), {"annotation": model})}})).split(" is outside ")[1].split(":")[0]
 
 
-def test_every_bound_is_in_docs_errors():
+def _row(section: str, key: str) -> str:
+    """The line of ``key`` in the table of ``section`` on the generated configuration page."""
+    table = KEYS.split(f"\n## {section}\n", 1)[1].split("\n## ", 1)[0]
+    return next(line for line in table.splitlines() if line.startswith(f"| `{key}` |"))
+
+
+def test_every_bound_is_in_the_docs():
     for name, bound in BOUNDS.items():
         if name not in ("flow_speed", "viscosity"):       # bounded through the Reynolds number
-            assert f"`mesh.{name}`" in DOC and bound.text() in DOC, name
+            assert bound.text() in _row("mesh", name), name
     for section, model in (("flow", FlowConfig), ("solver", SolverConfig)):
         for key, info in model.model_fields.items():
             if info.metadata:
-                row = next(line for line in DOC.splitlines() if f"`{section}.{key}`" in line)
+                row = _row(section, key)
                 assert _range_text(section, key, model) in row, (key, row)
     doc = _exponents(DOC)
     assert f"[{_exponents(f'{REYNOLDS_RANGE[0]:g}, {REYNOLDS_RANGE[1]:g}')}]" in doc
