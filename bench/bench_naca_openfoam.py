@@ -3,7 +3,7 @@
 For each ``--levels`` level of the validation C-mesh (:mod:`solver.validation.meshes.naca_mesh`) and each
 angle of attack, the mesh (with the far-field in/out split of that angle) is written as an OpenFOAM
 ``polyMesh`` (:mod:`openfoam_case`; the very same cells) and solved by both codes with the same
-conditions (docs/validation.md, "Matching the conditions"):
+conditions (docs/explanation/validation.md, "Matching the conditions"):
 
 * far field: velocity inlet U∞ = (cos α, sin α) on ``farfield_in`` **without** the point-vortex
   correction (``run_naca0012(..., vortex_correction=False)``), p = 0 with zero-gradient velocity on
@@ -30,7 +30,7 @@ c_f < 0), iterations, seconds, the spread of C_L over the last 200 iterations an
 ``--of-resume`` continues an OpenFOAM case of ``--work`` from its latest written time up to ``--of-iterations`` in
 all (a run still moving at its cap); the record joins the stretches.
 
-Restart test (docs/validation-naca0012-sessions.md, "Findings (session 3)"): ``--mf-start openfoam`` starts
+Restart test (docs/explanation/validation.md, "Findings (session 3)"): ``--mf-start openfoam`` starts
 millfoil from OpenFOAM's converged fields of the same level and angle (the case must exist under ``--work``); the
 record's code is then ``millfoil...@openfoam``. A converged millfoil solution that differs from OpenFOAM's is then
 a difference of the discrete equations, not of the start (hysteresis), and the drift shows which way.
@@ -153,7 +153,7 @@ def fv_schemes(u_gradient: str = "Gauss linear", gradient: str = "Gauss linear",
     grad(U) of the
     stresses and production, grad(p), grad(k), grad(omega)) elsewhere, corrected Laplacians. OpenFOAM's
     ``leastSquares`` gradient (millfoil's kind) made every run on this mesh diverge within 30 iterations
-    (from a uniform or the potential start), so the gradients are Green-Gauss (docs/validation.md)."""
+    (from a uniform or the potential start), so the gradients are Green-Gauss (docs/explanation/validation.md)."""
     return """ddtSchemes { default steadyState; }
 gradSchemes
 {
@@ -181,7 +181,7 @@ def fv_solution(alpha_u: float, alpha_turb: float, non_orthogonal: int = 0) -> s
     ``non_orthogonal``: pressure non-orthogonal correctors per iteration. They change the iteration path, not the
     converged solution; the fine C-mesh (non-orthogonality up to 53° where its lines turn, 0.1–0.3 c from the
     wall) needs 2: with 0 simpleFoam diverges there within ~150 iterations from every start
-    (docs/validation-naca0012-sessions.md, session 15)."""
+    (docs/explanation/validation.md, session 15)."""
     return f"""solvers
 {{
     p {{ solver GAMG; smoother GaussSeidel; tolerance 1e-9; relTol 0.01; }}

@@ -32,7 +32,7 @@ replaying stop rules offline, e.g. with ``--set early_classify=false`` to the ca
 (repeatable) overrides a key of the ``solver:`` section (the value read as JSON where it parses), e.g. to
 sweep the blades with other solver settings before changing a default. ``--mesh-set KEY=VALUE`` does the
 same for the ``mesh:`` section: the default domain is open (``half_height`` 5 chords), the campaigns and the
-paper's configs use the confined channel (``half_height: 1.0``; docs/benchmarks.md, "Start-up divergence in
+paper's configs use the confined channel (``half_height: 1.0``; docs/explanation/performance.md, "Start-up divergence in
 the channel at coarse").
 """
 

@@ -1,7 +1,7 @@
 """Where the NACA 0012 same-mesh drag difference comes from, and where each code's drag converges.
 
 Two measurements on the runs of ``bench/bench_naca_openfoam.py`` (its ``--work`` directory and its JSON lines),
-docs/validation-naca0012-sessions.md, "Drag: OpenFOAM's converges to millfoil's (session 15)":
+docs/explanation/validation.md, "Drag: OpenFOAM's converges to millfoil's (session 15)":
 
 * **Total pressure lost round the nose.** p0 = p − 2/3 k + |u|²/2 with ρ = 1, U∞ = 1 and p∞ = 0 on the outflow, so
   p0∞ = 1/2 (both codes hold the modified pressure p + 2/3 k). Outside the boundary layer (ν_t/ν < 1) the exact

@@ -1,7 +1,7 @@
 """Blade geometry: Bezier camber line and sides, design or milling tool-path mode, N-buffer machining.
 
 Knows nothing of meshing, the solver or the optimiser. Units are SI (metres) except angles in
-configuration values (degrees); see :mod:`geometry.parameters` and ``docs/geometry.md``.
+configuration values (degrees); see :mod:`geometry.parameters` and ``docs/explanation/geometry.md``.
 """
 
 from geometry.bezier import BezierCurve

@@ -100,7 +100,7 @@ class Evaluation:
     """The outcome of :func:`optimizer.pipeline.evaluate` for one blade (SI units).
 
     status: ``converged``, ``stationary``, ``oscillating``, ``not_converged`` (the solve ran; figures
-        available, see ``docs/evaluation.md`` for which to trust) or ``infeasible``, ``diverged``,
+        available, see ``docs/explanation/evaluation.md`` for which to trust) or ``infeasible``, ``diverged``,
         ``failed`` (no figures). stage: the stage that failed (:data:`STAGES`), else None.
     message: one line saying why (the failure reason, or the solver's and the classifier's verdict).
     converged: the solver's own convergence test passed.

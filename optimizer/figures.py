@@ -4,7 +4,7 @@
 2013) and returns them as an :class:`~optimizer.evaluation.Evaluation`; :func:`wall_distribution` gives
 C_p, c_f and y+ along each side of the blade. The solver knows meshes and fields, never blades: splitting
 the blade wall into suction side, pressure side and trailing edge uses the :class:`geometry.Profile` (its
-leading- and trailing-edge indices) and is done here. See ``docs/evaluation.md``.
+leading- and trailing-edge indices) and is done here. See ``docs/explanation/evaluation.md``.
 """
 
 from __future__ import annotations

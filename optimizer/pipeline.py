@@ -12,7 +12,7 @@ evaluation records the stage that failed and why. Its stages are plain functions
 * solve: :func:`solve_flow` — a :class:`solver.FlowResults`;
 * post: :func:`optimizer.figures.figures_of_merit` — the figures.
 
-See ``docs/evaluation.md``.
+See ``docs/explanation/evaluation.md``.
 """
 
 from __future__ import annotations
@@ -186,7 +186,7 @@ def boundary_conditions(config: Config) -> dict[str, Any]:
 def simple_settings(config: Config) -> SimpleSettings:
     """:class:`solver.SimpleSettings` from the ``solver:`` section (whose keys are its fields), the blade
     forces monitored, and the stop test waiting for the objectives' monitors, F_Y and C_max (F_X, reported
-    but not optimised, settles last: docs/performance.md, "Stop on the objectives")."""
+    but not optimised, settles last: docs/explanation/performance.md, "Stop on the objectives")."""
     return SimpleSettings(**config.solver.settings(), monitor_groups=(BLADE,),
                           stop_monitors=(f"fy:{BLADE}", "c_max"))
 

@@ -150,14 +150,14 @@ def established(monitors: dict, it: int, cfg: SimpleSettings):
     * ``not_converged`` (drifting): the trend has the same sign in both windows, is not smaller than the
       window before's, and is above ``classify_tol`` times the mean. A drift that slows down runs on: its
       decay is not geometric where a blade climbs out of a stall (table4 at medium slowed by too little at
-      first, was stopped at 825 iterations, and converges at 1 870; session 12, docs/validation-blades.md);
+      first, was stopped at 825 iterations, and converges at 1 870; session 12, docs/explanation/validation.md);
       none of the 300 blade solves of the session-11 and -12 sweeps stopped early as drifting.
 
     So a drift that would settle before the cap, or an oscillation whose mean still moves and whose
     amplitude decays, runs on. Measured (random blade 0 of ``bench/bench_robustness.py`` at medium): an
     oscillation of 1e-3 relative amplitude with a settled mean ran to the 2 000-iteration cap under the
     decay test alone (4.4x the iterations of a converged blade); it stopped at 600 with the fixed window.
-    The window scaled to the period (session 6, docs/performance.md "Unsettled blades (session 6)"): the
+    The window scaled to the period (session 6, docs/explanation/performance.md "Unsettled blades (session 6)"): the
     24 oscillating blades of that sweep stop after 637.5 iterations by the median instead of 725 (1.96x
     the converged median, was 2.23x), every class and every converged blade unchanged, the window means
     of F_Y and C_max within ``max(classify_tol |mean|, amplitude / 2)`` of those at the cap. The margin is

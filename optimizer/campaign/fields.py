@@ -1,7 +1,7 @@
 """The fields a campaign keeps for the designs of its front: one small ``RUN/fields/<key>.npz`` per design.
 
 The store (:mod:`optimizer.campaign.store`) keeps figures and monitors, not fields. For the report's
-"flow fields of selected designs" (``docs/reports.md``) the worker writes, after a solved evaluation, a
+"flow fields of selected designs" (``docs/explanation/reports.md``) the worker writes, after a solved evaluation, a
 compact file beside the store (:func:`write_fields`, called by :mod:`optimizer.campaign.record`), and the
 driver removes, at the end of each generation, the files of stored designs that are no longer on the
 front (:func:`prune_fields`). A 5 000-evaluation campaign so keeps about a population's worth of files

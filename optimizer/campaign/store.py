@@ -5,7 +5,7 @@ time) loses nothing that was computed; ``millfoil resume`` rebuilds the optimise
 WAL journal mode lets any number of readers (``millfoil status``, a report) read while the driver writes,
 from another process or a login node sharing the file system.
 
-Tables (the full reference with every column is in ``docs/campaigns.md``):
+Tables (the full reference with every column is in ``docs/explanation/campaigns.md``):
 
 ``campaign``
     one row: the resolved configuration (YAML), seed, millfoil version, start and end times (UTC ISO
@@ -139,7 +139,7 @@ def _infinite(v: Any) -> Any:
 
 @dataclass(frozen=True)
 class EvaluationRow:
-    """One row of ``evaluations`` (see ``docs/campaigns.md`` for the meaning of each field).
+    """One row of ``evaluations`` (see ``docs/explanation/campaigns.md`` for the meaning of each field).
 
     x: design vector (configuration units). parameters: ``{name: value}`` of the whole blade (or the
     analytic problem's variables). objectives: ``{name: value}`` as the user states them (``None`` when

@@ -36,7 +36,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         epilog="Examples:\n"
         "  millfoil run                # the embedded quickstart campaign, into runs/quickstart\n"
         "  millfoil run configs/paper/toolpath_g1.yaml --set execution.backend=slurm --out runs/tp_g1\n"
-        "Configuration reference: docs/campaigns.md.",
+        "Configuration reference: docs/explanation/campaigns.md.",
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     campaign_arguments(run)

@@ -23,7 +23,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         "Table 7 summary (with the paper's values for its cases), blades along the front, campaign health per "
         "generation, provenance. Exit status: 0 written, 2 bad input, 4 not written.",
         epilog="Examples:\n  millfoil report runs/quickstart\n"
-        "  millfoil report runs/design_g1 runs/toolpath_g1 --out reports/g1 --open\nSee docs/reports.md.",
+        "  millfoil report runs/design_g1 runs/toolpath_g1 --out reports/g1 --open\nSee docs/explanation/reports.md.",
     )
     p.add_argument("directories", nargs="+", type=Path, metavar="RUN", help="run directories")
     p.add_argument("--out", type=Path, metavar="DIR", help="output directory (default: FIRST-RUN/report)")

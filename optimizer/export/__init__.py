@@ -4,7 +4,7 @@ The point of the tool-path approach (Vessaz et al. 2013, §1, Table 1) is that t
 the machine unchanged: the degree-4 Bezier sides of the cutter-centre path become Sinumerik ``POLY`` blocks
 or LinuxCNC order-5 NURBS blocks, exactly (:mod:`optimizer.export.nc`), or DXF ``SPLINE`` entities
 (:mod:`optimizer.export.cad`); :mod:`optimizer.export.verify` reads a program back with the controller's
-definition of its blocks and measures the distance to the optimiser's path. ``docs/nc-export.md``.
+definition of its blocks and measures the distance to the optimiser's path. ``docs/how-to/export-nc-programs.md``.
 """
 
 from __future__ import annotations

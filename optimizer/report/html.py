@@ -105,7 +105,7 @@ def _summary(runs: list[Run], pts, out: Path) -> str:
     return ("<h2 id=\"summary\">Summary (Table 7)</h2>\n<p class=\"note\">Extremes over the feasible accepted "
             "designs, with the convergence class and number of the design that reaches each. For the paper's "
             "cases (same blade family, objectives max |F_Y|, min C_max) the paper's Table 7 row is shown below ours "
-            "(Vessaz et al. 2013; its channel and mesh differ: docs/campaigns.md). Table: "
+            "(Vessaz et al. 2013; its channel and mesh differ: docs/explanation/campaigns.md). Table: "
             "<a href=\"summary.csv\">summary.csv</a>.</p>\n"
             f"<table><tr><th class=\"l\">run</th>{head}</tr>{''.join(rows)}</table>")
 

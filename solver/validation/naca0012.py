@@ -20,7 +20,7 @@ and the two-point wall omega flux. Against OpenFOAM's ``kOmegaSST`` on the same 
 put C_L,max at OpenFOAM's angle (coarse 16 deg, medium 17 deg) with OpenFOAM's coarse-to-medium trend, and the
 lift within 1 % from 13 to 17 deg (coarse) and at 12 and 14-17 deg (medium), but +1.1 to +1.2 % at 10-12 deg
 (coarse); against CFL3D at 10 deg: coarse C_L -1.18 %, C_D -7.6 %, fine -0.96 % / -1.83 %
-(docs/validation-naca0012-sessions.md, "Drag on the same mesh, and the medium sweep (session 7)"). The default keeps the
+(docs/explanation/validation.md, "Drag on the same mesh, and the medium sweep (session 7)"). The default keeps the
 case's TMR figures and loses lift near stall on the coarse mesh (-7 % at 16 deg).
 
 Compared with CFL3D SST on the 897x257 grid (``solver/validation/reference/tmr_naca0012_cfl3d_sst_*.csv``, copied
@@ -67,7 +67,7 @@ ALPHAS = (0.0, 10.0)
 TOLERANCE = {0.0: {"C_L_abs": 0.005, "C_D_rel": 0.08}, 10.0: {"C_L_rel": 0.02, "C_D_rel": 0.08}}
 #: The issue asks only to report the RMS of C_p(computed) - C_p(CFL3D) over the reference points; this
 #: project tolerance (about 2 % of the α = 10° suction peak |C_p| ~ 5.5) flags gross errors. Measured
-#: (SST, converged, docs/naca0012.md runs B): α = 0: 0.011 / 0.003 / 0.003 (coarse / medium / fine);
+#: (SST, converged, docs/explanation/naca0012.md runs B): α = 0: 0.011 / 0.003 / 0.003 (coarse / medium / fine);
 #: α = 10: 0.077 / 0.041 / 0.031.
 #: Part of it is compressibility: the CFL3D runs are at M = 0.15 (Prandtl-Glauert factor 1.011).
 CP_RMS_TOLERANCE = 0.1
@@ -139,13 +139,13 @@ def boundary_conditions(alpha_deg: float, turbulent: bool = True, c_l: float | N
 #: linear-upwind gradient is limited in session 3-4's near-stall variant (``naca_settings(near_stall=True,
 #: limiter="venkatakrishnan", limiter_k=5, limiter_iterations=LIMITER_ITERATIONS)``); after them it is
 #: unlimited, OpenFOAM's ``linearUpwind``. Unlimited from the start, the potential flow's slip velocity at the
-#: no-slip wall diverges within 4 iterations (docs/validation-naca0012-sessions.md, "Findings (session 3)").
+#: no-slip wall diverges within 4 iterations (docs/explanation/validation.md, "Findings (session 3)").
 LIMITER_ITERATIONS = 500
 
 #: The near-stall solver settings (issue 15): the Venkatakrishnan-Wang limiter with k = 20 throughout (it spares
 #: the young leading-edge boundary layer that K = 5 Venkatakrishnan clips; k = 40 left coarse 10 deg's C_D at
 #: -9.9 % of CFL3D, outside its 8 %) and the Green-Gauss pressure gradient (OpenFOAM's ``Gauss linear``),
-#: which Rhie-Chow uses too (docs/validation-naca0012-sessions.md, sessions 5-7).
+#: which Rhie-Chow uses too (docs/explanation/validation.md, sessions 5-7).
 NEAR_STALL_SETTINGS = {"limiter": "venkatakrishnan_wang", "limiter_k": 20.0, "pressure_gradient": "green_gauss"}
 #: The near-stall SST options: OpenFOAM's (and Menter 2003's) limited omega production and the two-point omega
 #: flux next to the wall cells.
@@ -156,7 +156,7 @@ def naca_turbulence(near_stall: bool = False) -> SST:
     """The case's k-omega SST: SST-2003 with the ``low_re`` wall treatment and OpenFOAM's limited omega
     production (``omega_production="limited"``, the blades' default too, session 14: against OpenFOAM on the same
     coarse C-mesh the lift at 16 deg -0.61 % instead of -1.54 %, at 10-15 deg +0.76 ... -0.16 %; the TMR
-    references stay met on every level, docs/validation.md); ``near_stall``: with :data:`NEAR_STALL_SST` (used
+    references stay met on every level, docs/explanation/validation.md); ``near_stall``: with :data:`NEAR_STALL_SST` (used
     with :data:`NEAR_STALL_SETTINGS`, see the module docstring)."""
     return SST(wall_treatment="low_re", **{"omega_production": "limited", **(NEAR_STALL_SST if near_stall else {})})
 
@@ -172,7 +172,7 @@ def naca_settings(near_stall: bool = False, **overrides) -> SimpleSettings:
     leading edge, and in the far-wake cells near the outflow plane); SIMPLE's ``V / a_P`` stays positive.
     The blades' pressure gradient, ``green_gauss_bounded`` (session 12; the solver's default least squares
     before): against OpenFOAM on the same C-mesh the coarse lift at 16 deg -1.6 % instead of -5.4 %, and
-    the TMR references met on every level (docs/naca0012.md, docs/validation.md). And their face velocity,
+    the TMR references met on every level (docs/explanation/naca0012.md, docs/explanation/validation.md). And their face velocity,
     ``bounded`` (session 13): the trailing-edge corner keeps OpenFOAM's trailing-edge loading, and the
     coarse lift at 2-8 deg comes within 1 % of OpenFOAM's (+1.1 ... +1.75 % before).
 
@@ -209,7 +209,7 @@ class Convergence:
     ``cl_rel * max(|C_L|, CL_SCALE_MIN)``: at low incidence the lift settles by a slow monotone drift (on the
     coarse C-mesh at 2° C_L falls by about 10⁻⁴ per 500 iterations when the absolute test stops it, and by
     another 0.2–0.3 % before it settles), so a window change of 5·10⁻⁴ leaves it 0.15–0.55 % high at 2°–4°
-    (docs/validation-naca0012-sessions.md, session 16). The side-by-side harness uses ``cl_rel``."""
+    (docs/explanation/validation.md, session 16). The side-by-side harness uses ``cl_rel``."""
 
     chunk: int = 100
     max_iter: int = 6000

@@ -119,7 +119,7 @@ def test_design_blades_satisfying_eq21_build_and_only_crossing_sides_are_infeasi
 
 
 def test_a_design_blade_satisfying_eq21_can_cross_itself():
-    """Eq. 21 does not make a design blade feasible (issue 11, item 8; docs/geometry.md): ~0.1-0.5 % of
+    """Eq. 21 does not make a design blade feasible (issue 11, item 8; docs/explanation/geometry.md): ~0.1-0.5 % of
     the Table 6 box, every class, crosses itself. Here a strongly cambered G0 blade (β̄1 − β1 = 42°) with a
     long P3P4 leg (d_p3 = 50 mm) whose pressure side crosses the suction side near x = 55 mm."""
     values = {"L": 0.1, "alpha": 0.78322, "beta1": 0.45953, "beta1bar": 42.61485, "u_s1": 0.01847,

@@ -2,7 +2,7 @@
 
 The flow runs are laminar at Re = C0 L / nu = 0.2 · 0.1 / 1e-3 = 20 on the coarse mesh of the benchmark
 G1 blade (steady, converges in ~250 SIMPLEC iterations, a few seconds); the paper's k-ω SST case at
-Re = 1e6 takes minutes and is run by hand (docs/evaluation.md).
+Re = 1e6 takes minutes and is run by hand (docs/explanation/evaluation.md).
 """
 
 import json

@@ -75,7 +75,7 @@ def test_automatic_wall_treatment_at_y_plus_30():
     """Wall functions: the coarse plate with the first cell at y+ ~ 30 (3e-4 m first spacing, 64 normal cells)
     and the ``automatic`` treatment: measured c_f(0.97) 1.0 % and C_D 1.4 % above TMR (3 %: a failure means
     the wall-function shear or the wall-cell k/omega changed). ``low_re`` on such a mesh is ~9 % / 14 % off
-    (docs/turbulence.md)."""
+    (docs/explanation/turbulence.md)."""
     res, c = run_flatplate("coarse", "automatic", mesh_overrides={"dy_wall": 3e-4})
     assert res.converged
     assert 20 < np.median(c.y_plus[c.x > 0.05]) < 40

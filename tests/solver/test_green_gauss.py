@@ -4,7 +4,7 @@ momentum source and the Rhie–Chow interpolation.
 With Green–Gauss in the momentum source and the least-squares gradient in Rhie–Chow, the face flux kept a
 pressure term ``D̄ (ḡ_LS - ḡ_GG)·e`` that the pressure-correction equation does not see; on the fine NACA
 0012 C-mesh at 10° a pressure/v mode grew from ~2 500 iterations in the band of 30-53° non-orthogonal
-cells above the suction side (docs/validation-naca0012-sessions.md, "The Green–Gauss pressure gradient on the fine mesh
+cells above the suction side (docs/explanation/validation.md, "The Green–Gauss pressure gradient on the fine mesh
 (session 6)"). Full check (not run here, ~6 min): ``/work/notes/g6/tmr.py fine 10 40 s3 6000``.
 """
 

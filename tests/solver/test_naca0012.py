@@ -1,7 +1,7 @@
 """NASA TMR NACA 0012 case: C-mesh validity and geometry, reference loading, a coarse laminar run that
 must be symmetric at alpha = 0, and the k-omega SST run at alpha = 10 deg, Re = 6e6 on the coarse C-mesh
 against CFL3D (≈ 3.5 min). Finer levels and alpha = 0: ``millfoil validate naca0012 --alpha A --level L``
-(docs/naca0012.md)."""
+(docs/explanation/naca0012.md)."""
 
 import dataclasses
 
@@ -171,7 +171,7 @@ def test_sst_alpha10_coarse_matches_cfl3d():
     converged after 1 700 iterations (183 s on the development machine; with the near-stall settings, not the
     case's default: C_L -1.44 %, C_D +3.58 %, C_p RMS 0.080). The issue's tolerances: C_L 2 %, C_D 8 %. The
     earlier SST variant (linear-upwind k/omega) gave C_D +8.6 % on the medium mesh, and the quadratic face flux
-    on these quads separated the flow (C_D 0.034; docs/naca0012.md)."""
+    on these quads separated the flow (C_D 0.034; docs/explanation/naca0012.md)."""
     from solver.validation import run_case
 
     report = run_case("naca0012", "coarse", alpha=10.0)
@@ -209,7 +209,7 @@ def test_the_limited_start_up_counts_over_the_run_and_the_stop_test_waits_for_it
 
 def test_the_near_stall_variant_adds_its_sst_terms_to_the_case_default():
     """The near-stall SST is SST-2003 (``low_re``) with OpenFOAM's limited omega production and the two-point
-    wall omega flux (docs/validation-naca0012-sessions.md, "Tried as the default (session 4)"); the case's
+    wall omega flux (docs/explanation/validation.md, "Tried as the default (session 4)"); the case's
     default SST is SST-2003 with the limited omega production alone (session 14)."""
     from solver.turbulence import SST
     from solver.validation.naca0012 import naca_turbulence
