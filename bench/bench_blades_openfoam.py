@@ -35,7 +35,7 @@ count and the iteration count), so several millfoil variants are compared with o
 ``limiter_iterations=300``, ``pressure_gradient=green_gauss``) or an :class:`solver.turbulence.SST` field
 (``omega_production=limited``, ``omega_wall_flux=two_point``); values are read as JSON where they parse
 (``bench_robustness.overrides``). ``--out`` appends JSON lines (one per blade and variant);
-``--report FILE ...`` prints the tables and the summary against issue 15's criteria (lift within 1.5 %,
+``--report FILE ...`` prints the tables and the summary against the blades' same-mesh criteria (lift within 1.5 %,
 C_max within 1 %, same class) of finished records without running anything.
 
     nice -n 5 env OMP_NUM_THREADS=1 python bench/bench_blades_openfoam.py --random 10 \\
@@ -69,7 +69,7 @@ from bench_paper_blades import BLADES as PAPER_BLADES  # noqa: E402
 from bench_robustness import draw_blades, overrides  # noqa: E402
 from openfoam_case import DEPTH, ensure_openfoam, latest_time, read_dat, read_field, write_polymesh  # noqa: E402
 
-#: Issue 15's criteria for the blades: |C_L ratio - 1| and |C_max ratio - 1|.
+#: The blades' same-mesh criteria (docs/explanation/validation.md): |C_L ratio - 1| and |C_max ratio - 1|.
 LIFT_TOL, CMAX_TOL = 0.015, 0.01
 #: Classes of a solve whose figures are used (the window means where oscillating).
 SETTLED = ("converged", "oscillating")

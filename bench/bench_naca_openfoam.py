@@ -30,7 +30,7 @@ c_f < 0), iterations, seconds, the spread of C_L over the last 200 iterations an
 ``--of-resume`` continues an OpenFOAM case of ``--work`` from its latest written time up to ``--of-iterations`` in
 all (a run still moving at its cap); the record joins the stretches.
 
-Restart test (docs/explanation/validation.md, "Findings (session 3)"): ``--mf-start openfoam`` starts
+Restart test (docs/decisions/0007-limiter-iterations.md): ``--mf-start openfoam`` starts
 millfoil from OpenFOAM's converged fields of the same level and angle (the case must exist under ``--work``); the
 record's code is then ``millfoil...@openfoam``. A converged millfoil solution that differs from OpenFOAM's is then
 a difference of the discrete equations, not of the start (hysteresis), and the drift shows which way.
@@ -76,7 +76,8 @@ from solver.validation.naca0012 import REYNOLDS, freestream, load_clcd, tmr_free
 #: Default angles of attack, deg: steps of 2 up to 12, then 1 through C_L,max (SST: about 16-18 deg).
 ALPHAS = (0, 2, 4, 6, 8, 10, 12, 13, 14, 15, 16, 17, 18, 19, 20)
 #: millfoil's stop test here: C_L may change by 1e-4 of itself over the 500-iteration window (the validation
-#: case's absolute 5e-4 stops the low-incidence runs while C_L still drifts: 0.1-0.5 % high at 2-8 deg; session 16).
+#: case's absolute 5e-4 stops the low-incidence runs while C_L still drifts: 0.1-0.5 % high at 2-8 deg;
+#: docs/decisions/0008-naca0012-stop-test.md).
 CL_REL = 1e-4
 LADSON_FILE = ROOT.parent / "shared" / "reference" / "ladson_naca0012_clcd.csv"
 FIGURES = ROOT / "docs" / "figures" / "validation"
@@ -181,7 +182,7 @@ def fv_solution(alpha_u: float, alpha_turb: float, non_orthogonal: int = 0) -> s
     ``non_orthogonal``: pressure non-orthogonal correctors per iteration. They change the iteration path, not the
     converged solution; the fine C-mesh (non-orthogonality up to 53° where its lines turn, 0.1–0.3 c from the
     wall) needs 2: with 0 simpleFoam diverges there within ~150 iterations from every start
-    (docs/explanation/validation.md, session 15)."""
+    (docs/explanation/validation.md)."""
     return f"""solvers
 {{
     p {{ solver GAMG; smoother GaussSeidel; tolerance 1e-9; relTol 0.01; }}
@@ -506,13 +507,14 @@ def report(records: dict) -> str:
     return "\n".join(lines) + "\n\n" + "\n".join(f"- {n}" for n in notes)
 
 
-#: Issue 15's same-mesh tolerances: lift (relative), drag (relative), the angle of C_L,max (degrees).
+#: The same-mesh tolerances (docs/explanation/validation.md): lift (relative), drag (relative), the angle of C_L,max
+#: (degrees).
 LIFT_TOLERANCE, DRAG_TOLERANCE, ANGLE_TOLERANCE = 0.01, 0.03, 1.0
 LEVELS = ("coarse", "medium", "fine")
 
 
 def criteria(records: dict, code: str = "millfoil", reference: str = "openfoam") -> str:
-    """Issue 15's same-mesh criteria, ``code`` against ``reference``, per level: the angles up to the reference's
+    """The same-mesh criteria, ``code`` against ``reference``, per level: the angles up to the reference's
     C_L,max (lift from 2°: at 0° C_L is ~0) where ΔC_L exceeds :data:`LIFT_TOLERANCE` or ΔC_D
     :data:`DRAG_TOLERANCE`, the angle of C_L,max of each, and from one level to the next the C_L change of both
     at the angles both levels have. Markdown; oscillating runs count by their window mean (:func:`lift`)."""
@@ -572,22 +574,22 @@ def load_ladson_trips() -> dict[str, np.ndarray]:
     return {k: np.array(sorted(v)) for k, v in out.items()}
 
 
-#: The code label of the records taken with session 10's option ``SST(velocity_gradient="green_gauss")`` (the
-#: default while they were run); the plain ``millfoil`` records are the default's.
-SESSION10 = "millfoil-s10"
-#: The code label of the records of the least-squares SST gradient, the default to session 10 (relabelled when
-#: session 11 made ``green_gauss_bounded`` the default; the plain ``millfoil`` records since are the new default's).
+#: The code label of the records taken with ``SST(velocity_gradient="green_gauss")`` (then the default); the
+#: plain ``millfoil`` records are the present default's.
+GREEN_GAUSS_SST = "millfoil-s10"
+#: The code label of the records of the least-squares SST gradient (relabelled when ``green_gauss_bounded`` became
+#: the default; the plain ``millfoil`` records since are the new default's).
 LEAST_SQUARES = "millfoil-ls"
-#: The code label of the records of session 11's default (least-squares pressure gradient, bounded Green–Gauss SST
-#: gradient; relabelled when session 12 made the bounded Green–Gauss pressure gradient the default).
-SESSION11 = "millfoil-s11"
-#: The code label of the records of session 12's default (bounded Green–Gauss pressure gradient, skewness-corrected
-#: face velocity; relabelled when session 13 made the bounded face velocity the case's default).
-SESSION12 = "millfoil-s12"
-#: The code label of the records of session 13's default (bounded face velocity, unlimited omega production;
-#: relabelled when session 14 made OpenFOAM's limited omega production the case's default).
-SESSION13 = "millfoil-s13"
-#: The code label of OpenFOAM's runs with ``--interpolation "skewCorrected linear"`` (session 14): the face values of
+#: The code label of the records with the least-squares pressure gradient and the bounded Green–Gauss SST gradient
+#: (relabelled when the bounded Green–Gauss pressure gradient became the default).
+LS_PRESSURE_GRADIENT = "millfoil-s11"
+#: The code label of the records with the bounded Green–Gauss pressure gradient and the skewness-corrected face
+#: velocity (relabelled when the bounded face velocity became the case's default).
+CORRECTED_FACE_VELOCITY = "millfoil-s12"
+#: The code label of the records with the bounded face velocity and the unlimited omega production (relabelled when
+#: OpenFOAM's limited omega production became the case's default).
+UNLIMITED_OMEGA = "millfoil-s13"
+#: The code label of OpenFOAM's runs with ``--interpolation "skewCorrected linear"``: the face values of
 #: HbyA and rAU in its flux skewness-corrected, the counterpart of millfoil's reconstructed face velocity.
 OPENFOAM_SKEW = "openfoam[interpolation=skewCorrected linear]"
 
@@ -605,11 +607,11 @@ def plot(records: dict, directory: Path = FIGURES) -> list[Path]:
     fig, ax = plt.subplots(figsize=(11, 5))
     styles = {"openfoam": ("OpenFOAM kOmegaSST", "s--"),
               OPENFOAM_SKEW: ("OpenFOAM kOmegaSST, skewCorrected linear face flux", "D:"),
-              "millfoil": ("millfoil SST (default: limited ω production, bounded face velocity, session 14)", "o-"),
-              SESSION13: ("millfoil SST, unlimited ω production (default of session 13)", "^-"),
-              SESSION12: ("millfoil SST, corrected face velocity (default of session 12)", "v-.")}
-    # the records of older defaults (SESSION11, LEAST_SQUARES, SESSION10) stay in the JSONL and the report's table,
-    # not on the figure: with both levels, more curves hide the ones compared
+              "millfoil": ("millfoil SST (default: limited ω production, bounded face velocity)", "o-"),
+              UNLIMITED_OMEGA: ("millfoil SST, unlimited ω production", "^-"),
+              CORRECTED_FACE_VELOCITY: ("millfoil SST, corrected face velocity", "v-.")}
+    # the records of older defaults (LS_PRESSURE_GRADIENT, LEAST_SQUARES, GREEN_GAUSS_SST) stay in the JSONL and the
+    # report's table, not on the figure: with both levels, more curves hide the ones compared
     for level in sorted({k[0] for k in records}):
         for code, (label, style) in styles.items():
             pts = sorted((a, lift(r)) for (lv, a, c), r in records.items() if lv == level and c == code

@@ -14,7 +14,8 @@ machine's load average is printed, as other jobs inflate wall times (CPU times m
 
     OMP_NUM_THREADS=1 python bench/bench_performance.py --levels coarse medium --blades 2 --repeats 3
     OMP_NUM_THREADS=1 python bench/bench_performance.py --levels medium --blades 0 --set algorithm=simple \\
-        --set alpha_u=0.7 --set alpha_p=0.3 --set pressure_gradient=least_squares  # before issue 13
+        --set alpha_u=0.7 --set alpha_p=0.3 --set pressure_gradient=least_squares  # SIMPLE, the alternative of
+        decision 0010
 """
 
 from __future__ import annotations

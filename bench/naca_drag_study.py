@@ -1,7 +1,7 @@
 """Where the NACA 0012 same-mesh drag difference comes from, and where each code's drag converges.
 
 Two measurements on the runs of ``bench/bench_naca_openfoam.py`` (its ``--work`` directory and its JSON lines),
-docs/explanation/validation.md, "Drag: OpenFOAM's converges to millfoil's (session 15)":
+docs/explanation/validation.md (the drag row and its open point):
 
 * **Total pressure lost round the nose.** p0 = p − 2/3 k + |u|²/2 with ρ = 1, U∞ = 1 and p∞ = 0 on the outflow, so
   p0∞ = 1/2 (both codes hold the modified pressure p + 2/3 k). Outside the boundary layer (ν_t/ν < 1) the exact
@@ -108,7 +108,7 @@ def richardson(values, cells) -> tuple[float | None, float | None]:
 
 def with_force_parts(record: dict, mesh, alpha: float) -> dict:
     """``record`` with C_D's pressure and viscous parts, from its wall C_p and c_f on ``mesh`` where it lacks them
-    (the OpenFOAM records from before session 7)."""
+    (the older OpenFOAM records)."""
     if "c_d_pressure" in record:
         return record
     return record | wall_force_parts(mesh, record["wall"], alpha)

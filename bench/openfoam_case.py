@@ -267,9 +267,9 @@ def openfoam_state(directory: Path, problem):
     finished ``simpleFoam`` ``kOmegaSST`` case: U, p (kinematic, times rho: already the modified pressure
     ``p + 2/3 rho k`` that millfoil's holds, since OpenFOAM's ``divDevReff`` leaves the ``2/3 k`` part of the
     Reynolds stress out of the momentum equation; constant across the boundary layer in both codes'
-    fields, docs/explanation/validation.md, session 8), the face mass flux (:func:`read_face_flux`), k,
+    fields, docs/explanation/validation.md), the face mass flux (:func:`read_face_flux`), k,
     omega, nut; the gradients are the least-squares ones of these fields and the wall viscosity the molecular one
-    (``low_re``). The restart test of docs/explanation/validation.md ("Findings (session 3)"): millfoil
+    (``low_re``). The restart test of docs/decisions/0007-limiter-iterations.md: millfoil
     started from OpenFOAM's converged solution."""
     from solver.gradient import ls_gradient
     from solver.problem import FlowState

@@ -150,14 +150,14 @@ def established(monitors: dict, it: int, cfg: SimpleSettings):
     * ``not_converged`` (drifting): the trend has the same sign in both windows, is not smaller than the
       window before's, and is above ``classify_tol`` times the mean. A drift that slows down runs on: its
       decay is not geometric where a blade climbs out of a stall (table4 at medium slowed by too little at
-      first, was stopped at 825 iterations, and converges at 1 870; session 12, docs/explanation/validation.md);
-      none of the 300 blade solves of the session-11 and -12 sweeps stopped early as drifting.
+      first, was stopped at 825 iterations, and converges at 1 870; docs/decisions/0015-early-stop.md);
+      none of the blade solves of the robustness sweeps stops early as drifting.
 
     So a drift that would settle before the cap, or an oscillation whose mean still moves and whose
     amplitude decays, runs on. Measured (random blade 0 of ``bench/bench_robustness.py`` at medium): an
     oscillation of 1e-3 relative amplitude with a settled mean ran to the 2 000-iteration cap under the
     decay test alone (4.4x the iterations of a converged blade); it stopped at 600 with the fixed window.
-    The window scaled to the period (session 6, docs/explanation/performance.md "Unsettled blades (session 6)"): the
+    The window scaled to the period (docs/decisions/0015-early-stop.md): the
     24 oscillating blades of that sweep stop after 637.5 iterations by the median instead of 725 (1.96x
     the converged median, was 2.23x), every class and every converged blade unchanged, the window means
     of F_Y and C_max within ``max(classify_tol |mean|, amplitude / 2)`` of those at the cap. The margin is
@@ -190,9 +190,10 @@ def established(monitors: dict, it: int, cfg: SimpleSettings):
 
 #: An oscillation whose spread, decaying at the rate of its last two windows, falls below ``classify_tol``
 #: within this many more windows is not stopped as ``oscillating``: it is a ripple on the way to
-#: ``converged``. Measured (session 10): table5 under the Green-Gauss SST gradient, its ripple at 7e-4 of
+#: ``converged``. Measured (docs/decisions/0015-early-stop.md): table5 under the Green-Gauss SST gradient, its ripple
+#: at 7e-4 of
 #: the means and 3.4x smaller per window, was stopped as oscillating at 575 and converges at 600; on three
-#: sweeps of 50 medium blades to the cap (sessions 6, 7, 9) the only other change is random blade 15
+#: sweeps of 50 medium blades to the cap the only other change is random blade 15
 #: (converged at 1 030, stopped at 575 by its settled mean); every other stop is unchanged.
 SETTLE_WINDOWS = 2
 
@@ -245,7 +246,7 @@ def _persists(now, before, name: str, verdict: str, windows_left: float, tol: fl
         return 2.0 * a1 * decay ** windows_left > limit
     d1, d0 = now.drift[name], before.drift[name]
     # a drift that slows down runs on: table4 climbing out of its leading-edge stall slowed by less than the
-    # geometric rate at first, was stopped as drifting at 825 iterations, and converges at 1 870 (session 12)
+    # geometric rate at first, was stopped as drifting at 825 iterations, and converges at 1 870
     return d1 * d0 > 0 and abs(d1) >= abs(d0) and abs(d1) > limit
 
 

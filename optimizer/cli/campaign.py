@@ -36,7 +36,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         epilog="Examples:\n"
         "  millfoil run                # the embedded quickstart campaign, into runs/quickstart\n"
         "  millfoil run configs/paper/toolpath_g1.yaml --set execution.backend=slurm --out runs/tp_g1\n"
-        "Configuration reference: docs/explanation/campaigns.md.",
+        "Configuration reference: docs/reference/configuration.md; how campaigns work: docs/explanation/campaigns.md.",
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     campaign_arguments(run)
@@ -87,7 +87,7 @@ def campaign_arguments(parser: argparse.ArgumentParser) -> None:
     """The campaign file (optional: the embedded quickstart) and ``--set`` overrides of ``run`` and ``check``."""
     parser.add_argument("config", nargs="?", type=Path, metavar="CONFIG",
                         help=f"campaign YAML file (default: the embedded quickstart campaign, {QUICKSTART}: "
-                        "G1 design blades, coarse mesh, population 4, 3 generations, <= 10 min on 2 cores)")
+                        "G1 design blades, coarse mesh, population 4, 3 generations, about a minute on 2 cores)")
     parser.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
                         help="override a dotted key (algorithm.population=8, execution.backend=slurm); "
                         "repeatable")

@@ -5,7 +5,8 @@ one up by name. Levels (:data:`LEVELS`):
 
 * ``coarse``: CI size (seconds), with tolerances loosened to what the coarse mesh allows but still tight
   enough to fail a wrong scheme (each case states why);
-* ``medium`` and ``fine``: the acceptance figures of issue 4 with its tolerances, on two resolutions.
+* ``medium`` and ``fine``: the acceptance figures with their agreed tolerances (docs/explanation/validation.md), on
+two resolutions.
 
 Layout: one module per case (:mod:`.cavity`, :mod:`.cylinder`, :mod:`.flatplate`, :mod:`.mms`,
 :mod:`.naca0012`: the physics set-up, the comparison with the reference and its ``validate_*`` function),

@@ -28,7 +28,7 @@ from .report import Comparison, ValidationReport, run_summary
 #: Location of the published reference tables.
 # Published reference tables shipped with the package (copied verbatim from the project's shared/reference).
 REFERENCE_DIR = Path(__file__).resolve().parent / "reference"
-#: Acceptance of issue 4: RMS centreline error as a fraction of the lid speed.
+#: Acceptance (docs/explanation/validation.md): RMS centreline error as a fraction of the lid speed.
 TOLERANCE = {100: 0.01, 1000: 0.02}
 
 BOUNDARY_CONDITIONS = {"top": {"type": "moving_wall", "velocity": (1.0, 0.0)},
@@ -133,7 +133,7 @@ def table(cmp: CentrelineComparison, re: int) -> list[dict]:
 #: Cavity runs per level: ``{Re: (n, RMS tolerance as a fraction of the lid speed)}`` on the mixed gmsh
 #: mesh (quads for x < 0.5, triangles for x > 0.5). coarse: n = 32 (1 813 cells); measured RMS 0.32 %
 #: with linear upwind, 0.63 % with first-order upwind, so 0.45 % fails a first-order convection scheme.
-#: medium: n = 64 (~7 100 cells), fine: n = 100 (17 415 cells, <= 20 000 as issue 4 asks), both with the
+#: medium: n = 64 (~7 100 cells), fine: n = 100 (17 415 cells, <= 20 000 as the acceptance asks), both with the
 #: issue's tolerances (1 % at Re 100, 2 % at Re 1000).
 CAVITY_LEVELS = {"coarse": {100: (32, 0.0045)},
                  "medium": {100: (64, TOLERANCE[100]), 1000: (64, TOLERANCE[1000])},

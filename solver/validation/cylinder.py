@@ -26,7 +26,7 @@ from ..linalg import SolverSettings
 from .meshes import dfg_cylinder
 from .report import Comparison, ValidationReport, run_summary
 
-#: Reference values (FeatFlow, dfg_benchmark1_re20) and the acceptance of issue 4.
+#: Reference values (FeatFlow, dfg_benchmark1_re20) and the acceptance (docs/explanation/validation.md).
 REFERENCE = {"C_D": 5.57953523384, "C_L": 0.010618948146, "dp": 0.11752016697}
 TOLERANCE = {"C_D": 0.005, "dp": 0.01, "C_L": 0.002}     # relative, relative, absolute
 U_MAX, U_MEAN, DIAMETER, HEIGHT = 0.3, 0.2, 0.1, 0.41
@@ -114,7 +114,7 @@ def run_cylinder(level: str = "medium", settings: SimpleSettings | None = None, 
 #: Cylinder tolerances per level in % of the reference (C_D, Δp) and absolute (C_L). coarse (1 826 cells):
 #: measured errors C_D 1.1 %, Δp 1.5 %, C_L 0.0022 with linear upwind; first-order upwind convection on the
 #: same mesh gives C_D 13 %, Δp 2.5 %, C_L 0.027, so C_D <= 2 %, Δp <= 2 %, C_L <= 0.004 catch it.
-#: medium (7 124 cells) and fine (17 770 cells): the tolerances of issue 4.
+#: medium (7 124 cells) and fine (17 770 cells): the agreed tolerances (docs/explanation/validation.md).
 CYLINDER_TOLERANCES = {"coarse": {"C_D": 2.0, "dp": 2.0, "C_L": 0.004},
                        "medium": {"C_D": 0.5, "dp": 1.0, "C_L": 0.002},
                        "fine": {"C_D": 0.5, "dp": 1.0, "C_L": 0.002}}

@@ -13,18 +13,18 @@ of the current C_L (:func:`vortex_velocity`, updated every 100 iterations; TMR's
 correction too), with the TMR freestream turbulence (k = 9e-9 a², omega = 1e-6 rho a²/mu at M = 0.15, read
 from the CFL3D file header: intensity 5.16e-4, nu_t/nu = 0.009); ``farfield_out`` pressure outlet p = 0.
 Start: potential flow (:func:`potential_start`); SIMPLE, alpha_u 0.7, alpha_p 0.3 (:func:`naca_settings`).
-``near_stall=True`` runs the case with the near-stall settings of issue 15 (:data:`NEAR_STALL_SETTINGS`,
+``near_stall=True`` runs the case with the near-stall settings (:data:`NEAR_STALL_SETTINGS`,
 :data:`NEAR_STALL_SST`), not the default: the weak Venkatakrishnan-Wang limiter (k = 20) throughout, the
 Green-Gauss pressure gradient (in the momentum source and Rhie-Chow alike), OpenFOAM's limited omega production
-and the two-point wall omega flux. Against OpenFOAM's ``kOmegaSST`` on the same C-meshes (sessions 6-7) they
+and the two-point wall omega flux. Against OpenFOAM's ``kOmegaSST`` on the same C-meshes they
 put C_L,max at OpenFOAM's angle (coarse 16 deg, medium 17 deg) with OpenFOAM's coarse-to-medium trend, and the
 lift within 1 % from 13 to 17 deg (coarse) and at 12 and 14-17 deg (medium), but +1.1 to +1.2 % at 10-12 deg
 (coarse); against CFL3D at 10 deg: coarse C_L -1.18 %, C_D -7.6 %, fine -0.96 % / -1.83 %
-(docs/explanation/validation.md, "Drag on the same mesh, and the medium sweep (session 7)"). The default keeps the
+(docs/explanation/naca0012.md). The default keeps the
 case's TMR figures and loses lift near stall on the coarse mesh (-7 % at 16 deg).
 
 Compared with CFL3D SST on the 897x257 grid (``solver/validation/reference/tmr_naca0012_cfl3d_sst_*.csv``, copied
-from the TMR files): C_L, C_D at α = 0° and 10° (issue tolerances: α = 0: |C_L| <= 0.005, C_D within 8 %;
+from the TMR files): C_L, C_D at α = 0° and 10° (agreed tolerances: α = 0: |C_L| <= 0.005, C_D within 8 %;
 α = 10: C_L within 2 %, C_D within 8 %), and the RMS difference of C_p along the chord.
 
     millfoil validate naca0012 --alpha 10 --level medium     # prints the comparison
@@ -136,16 +136,16 @@ def boundary_conditions(alpha_deg: float, turbulent: bool = True, c_l: float | N
 
 
 #: Iterations of a run (counted from the potential start, restarts included) in which the momentum
-#: linear-upwind gradient is limited in session 3-4's near-stall variant (``naca_settings(near_stall=True,
+#: linear-upwind gradient is limited in the limited-start near-stall variant (``naca_settings(near_stall=True,
 #: limiter="venkatakrishnan", limiter_k=5, limiter_iterations=LIMITER_ITERATIONS)``); after them it is
 #: unlimited, OpenFOAM's ``linearUpwind``. Unlimited from the start, the potential flow's slip velocity at the
-#: no-slip wall diverges within 4 iterations (docs/explanation/validation.md, "Findings (session 3)").
+#: no-slip wall diverges within 4 iterations (docs/decisions/0007-limiter-iterations.md).
 LIMITER_ITERATIONS = 500
 
-#: The near-stall solver settings (issue 15): the Venkatakrishnan-Wang limiter with k = 20 throughout (it spares
+#: The near-stall solver settings: the Venkatakrishnan-Wang limiter with k = 20 throughout (it spares
 #: the young leading-edge boundary layer that K = 5 Venkatakrishnan clips; k = 40 left coarse 10 deg's C_D at
 #: -9.9 % of CFL3D, outside its 8 %) and the Green-Gauss pressure gradient (OpenFOAM's ``Gauss linear``),
-#: which Rhie-Chow uses too (docs/explanation/validation.md, sessions 5-7).
+#: which Rhie-Chow uses too (docs/explanation/naca0012.md).
 NEAR_STALL_SETTINGS = {"limiter": "venkatakrishnan_wang", "limiter_k": 20.0, "pressure_gradient": "green_gauss"}
 #: The near-stall SST options: OpenFOAM's (and Menter 2003's) limited omega production and the two-point omega
 #: flux next to the wall cells.
@@ -154,9 +154,11 @@ NEAR_STALL_SST = {"omega_production": "limited", "omega_wall_flux": "two_point"}
 
 def naca_turbulence(near_stall: bool = False) -> SST:
     """The case's k-omega SST: SST-2003 with the ``low_re`` wall treatment and OpenFOAM's limited omega
-    production (``omega_production="limited"``, the blades' default too, session 14: against OpenFOAM on the same
+    production (``omega_production="limited"``, the blades' default too,
+    docs/decisions/0004-limited-omega-production.md: against OpenFOAM on the same
     coarse C-mesh the lift at 16 deg -0.61 % instead of -1.54 %, at 10-15 deg +0.76 ... -0.16 %; the TMR
-    references stay met on every level, docs/explanation/validation.md); ``near_stall``: with :data:`NEAR_STALL_SST` (used
+    references stay met on every level, docs/explanation/validation.md); ``near_stall``: with
+    :data:`NEAR_STALL_SST` (used
     with :data:`NEAR_STALL_SETTINGS`, see the module docstring)."""
     return SST(wall_treatment="low_re", **{"omega_production": "limited", **(NEAR_STALL_SST if near_stall else {})})
 
@@ -170,10 +172,13 @@ def naca_settings(near_stall: bool = False, **overrides) -> SimpleSettings:
     SIMPLEC coefficient ``V / (a_P/alpha_u - sum a_nb)`` of :mod:`solver.simple` turns negative where a
     cell's remaining mass imbalance (net inflow) exceeds ``(1/alpha_u - 1) a_P`` (measured: near the
     leading edge, and in the far-wake cells near the outflow plane); SIMPLE's ``V / a_P`` stays positive.
-    The blades' pressure gradient, ``green_gauss_bounded`` (session 12; the solver's default least squares
-    before): against OpenFOAM on the same C-mesh the coarse lift at 16 deg -1.6 % instead of -5.4 %, and
-    the TMR references met on every level (docs/explanation/naca0012.md, docs/explanation/validation.md). And their face velocity,
-    ``bounded`` (session 13): the trailing-edge corner keeps OpenFOAM's trailing-edge loading, and the
+    The blades' pressure gradient, ``green_gauss_bounded`` (docs/decisions/0001-blade-pressure-gradient.md; the
+    solver's default is least
+    squares): against OpenFOAM on the same C-mesh the coarse lift at 16 deg -1.6 % instead of -5.4 %, and
+    the TMR references met on every level (docs/explanation/naca0012.md, docs/explanation/validation.md). And their
+    face velocity,
+    ``bounded`` (docs/decisions/0002-bounded-face-velocity.md): the trailing-edge corner keeps OpenFOAM's
+    trailing-edge loading, and the
     coarse lift at 2-8 deg comes within 1 % of OpenFOAM's (+1.1 ... +1.75 % before).
 
     ``near_stall``: with :data:`NEAR_STALL_SETTINGS`. A ``limiter_iterations`` override counts the iterations
@@ -209,7 +214,7 @@ class Convergence:
     ``cl_rel * max(|C_L|, CL_SCALE_MIN)``: at low incidence the lift settles by a slow monotone drift (on the
     coarse C-mesh at 2° C_L falls by about 10⁻⁴ per 500 iterations when the absolute test stops it, and by
     another 0.2–0.3 % before it settles), so a window change of 5·10⁻⁴ leaves it 0.15–0.55 % high at 2°–4°
-    (docs/explanation/validation.md, session 16). The side-by-side harness uses ``cl_rel``."""
+    (docs/decisions/0008-naca0012-stop-test.md). The side-by-side harness uses ``cl_rel``."""
 
     chunk: int = 100
     max_iter: int = 6000

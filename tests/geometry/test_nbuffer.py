@@ -130,7 +130,7 @@ def test_the_envelope_check_can_fail():
     assert hausdorff(p + 2e-6 * normal, exact) > TOLERANCE
 
 
-# Issue 11, item 8: a G0 tool path (Eq. 21 and Eq. 22 satisfied) whose machined region is two pieces. The
+# A G0 tool path (Eq. 21 and Eq. 22 satisfied) whose machined region is two pieces. The
 # rear piece's outline used to miss closing by 2.6 µm at its sharp tip; its stretches were dropped as
 # offset-loop tails and the blade was reported feasible and intact.
 TWO_PIECE_G0 = {"L": 0.1, "alpha": 8.28752494789275, "beta1": -17.760956653105, "beta1bar": 30.7401247947212,

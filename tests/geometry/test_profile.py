@@ -87,8 +87,9 @@ def trailing_edge_corners(profile):
 @pytest.mark.parametrize("mode", MODES)
 @pytest.mark.parametrize("continuity", ["G0", "G1", "C1", "G2", "C2"])
 def test_every_profile_starts_at_the_pressure_side_trailing_edge_corner(mode, continuity):
-    """Issue 11, item 8: machined G0 profiles used to start ~0.8 mm up the pressure side with the corner
-    last, shifting the pressure / trailing-edge split. The corners are exact intersections of envelope
+    """Every profile, machined G0 ones included, starts at the pressure-side trailing-edge corner: starting
+    ~0.8 mm up the pressure side with the corner last would shift the pressure / trailing-edge split. The corners are
+    exact intersections of envelope
     branches (design: curve end points), hence 1e-9 m. Blades whose sides cross (Eq. 21 violated, or a
     cutter path crossing itself) have no pressure side to start from and are left out."""
     space = ParameterSpace.default(mode, continuity)
@@ -119,7 +120,7 @@ def test_design_blades_satisfying_eq21_build_and_only_crossing_sides_are_infeasi
 
 
 def test_a_design_blade_satisfying_eq21_can_cross_itself():
-    """Eq. 21 does not make a design blade feasible (issue 11, item 8; docs/explanation/geometry.md): ~0.1-0.5 % of
+    """Eq. 21 does not make a design blade feasible (docs/explanation/geometry.md): ~0.1-0.5 % of
     the Table 6 box, every class, crosses itself. Here a strongly cambered G0 blade (β̄1 − β1 = 42°) with a
     long P3P4 leg (d_p3 = 50 mm) whose pressure side crosses the suction side near x = 55 mm."""
     values = {"L": 0.1, "alpha": 0.78322, "beta1": 0.45953, "beta1bar": 42.61485, "u_s1": 0.01847,

@@ -217,7 +217,7 @@ def test_sharp_leading_edge_fan_rays_turn_smoothly():
     """A ~10° wedge (bench sweep): the fan's last ray used to kink by ~65° where its straight part met the
     field line, making a quad with scaled Jacobian 0.395 at medium. The wedge is where the cutter of this
     G0 tool path cuts through the blade: the machined part is two pieces (a split blade, infeasible since
-    issue 11 item 8), and the wedge is the tip of the rear piece, meshed here as an outline of its own."""
+    a machined G0 tool path), and the wedge is the tip of the rear piece, meshed here as an outline of its own."""
     values = {"L": 0.1, "alpha": -2.3450748970232063, "beta1": -3.3346406298029905,
               "beta1bar": 34.904135393777345, "u_s1": 0.05545520146762559, "u_s2": 0.30621013205189723,
               "d_s1": 0.009516768934614029, "d_s2": 0.006545306812336067, "d_s3": 0.03190649602985245,

@@ -205,7 +205,8 @@ def test_solver_section_sets_the_sst_options(monkeypatch):
 
 
 def test_the_blades_turbulence_model_is_sst_with_openfoams_omega_production():
-    """The blade evaluations' SST: OpenFOAM's limited omega production (session 14; the SST's own default is
+    """The blade evaluations' SST: OpenFOAM's limited omega production
+    (docs/decisions/0004-limited-omega-production.md; the SST's own default is
     unlimited), the bounded Green–Gauss SST gradient, the automatic wall treatment; none when laminar."""
     from optimizer import pipeline
     from solver import SST

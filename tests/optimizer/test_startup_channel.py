@@ -13,9 +13,10 @@ from optimizer.pipeline import evaluate  # noqa: E402
 def test_coarse_channel_blade_needs_the_gentle_start(startup_iterations, status):
     """Random blade 3 of ``bench/bench_robustness.py`` (seed 2013) in the campaigns' channel at coarse: from the
     free stream at alpha_u 0.95 the velocity explodes at iteration 8; 50 iterations at 0.7 first and it converges
-    (470 iterations). Session 14's defaults (OpenFOAM's omega production, limiter K = 100) took blade 4, this test's
-    blade before, through without the start-up; blade 3 is the one of the 50 that still needs it
-    (/work/notes/s14/coarse_nostart.jsonl: the coarse-channel sweep with ``startup_iterations=0``)."""
+    (470 iterations). Of the 50 blades of that sweep, blade 3 is one that still needs the start-up with the
+    blades' present defaults. The parameters below are its draw; the sweep that finds it, with the start-up off:
+    ``python bench/bench_robustness.py --blades 50 --level coarse --mesh-set half_height=1.0 --set
+    startup_iterations=0`` (its records name each blade's index, parameters and status)."""
     params = {"L": 0.1, "alpha": 13.026401193492816, "beta1": -4.458539970563319, "beta1bar": 23.893982190206568,
               "u_s2": 0.2409011347599074, "d_s1": 0.007899870594468091, "d_s2": 0.010126170400710045,
               "d_s3": 0.024791527719602736, "d_s4": 0.002, "d_p1": 0.007382324129303904,

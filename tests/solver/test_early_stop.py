@@ -64,7 +64,7 @@ def test_a_long_period_keeps_the_classify_window_and_noise_waits_two_windows_aft
     rng = np.random.default_rng(1)
     noisy = _hist(25.0 + 0.05 * rng.standard_normal(2000))         # no period: classify_window
     assert _first_stop(noisy, CFG, 2000) == 500
-    whole = dataclasses.replace(CFG, early_skip=None)               # session 6: a whole window skipped
+    whole = dataclasses.replace(CFG, early_skip=None)               # early_skip None: a whole window skipped
     assert _first_stop(h, whole, 2000) == 600 and _first_stop(noisy, whole, 2000) == 600
 
 

@@ -4,8 +4,9 @@ momentum source and the Rhie–Chow interpolation.
 With Green–Gauss in the momentum source and the least-squares gradient in Rhie–Chow, the face flux kept a
 pressure term ``D̄ (ḡ_LS - ḡ_GG)·e`` that the pressure-correction equation does not see; on the fine NACA
 0012 C-mesh at 10° a pressure/v mode grew from ~2 500 iterations in the band of 30-53° non-orthogonal
-cells above the suction side (docs/explanation/validation.md, "The Green–Gauss pressure gradient on the fine mesh
-(session 6)"). Full check (not run here, ~6 min): ``/work/notes/g6/tmr.py fine 10 40 s3 6000``.
+cells above the suction side (docs/decisions/0001-blade-pressure-gradient.md). Full check (not run here: the fine
+C-mesh, minutes): ``run_naca0012(10, "fine", settings=naca_settings(pressure_gradient="green_gauss"))`` of
+:mod:`solver.validation.naca0012` runs 6 000 iterations without that mode.
 """
 
 import numpy as np

@@ -199,7 +199,7 @@ def test_the_limited_start_up_counts_over_the_run_and_the_stop_test_waits_for_it
     assert (near.limiter, near.limiter_k, near.limiter_iterations, near.pressure_gradient) == \
         ("venkatakrishnan_wang", 20.0, None, "green_gauss")             # limited throughout, weakly
     cfg = naca_settings(near_stall=True, limiter="venkatakrishnan", limiter_k=5.0,
-                        limiter_iterations=LIMITER_ITERATIONS)          # session 3-4's variant
+                        limiter_iterations=LIMITER_ITERATIONS)          # the near-stall variant
     assert cfg.limiter_iterations == LIMITER_ITERATIONS == 500 and cfg.pressure_gradient == "green_gauss"
     assert [chunk_limiter(cfg, done).limiter_iterations for done in (0, 400, 500, 2000)] == [500, 100, 0, 0]
     assert limiter_off_since(cfg, 1100) == 600 and limiter_off_since(cfg, 500) == 0
@@ -209,8 +209,9 @@ def test_the_limited_start_up_counts_over_the_run_and_the_stop_test_waits_for_it
 
 def test_the_near_stall_variant_adds_its_sst_terms_to_the_case_default():
     """The near-stall SST is SST-2003 (``low_re``) with OpenFOAM's limited omega production and the two-point
-    wall omega flux (docs/explanation/validation.md, "Tried as the default (session 4)"); the case's
-    default SST is SST-2003 with the limited omega production alone (session 14)."""
+    wall omega flux (docs/explanation/naca0012.md); the case's
+    default SST is SST-2003 with the limited omega production alone
+    (docs/decisions/0004-limited-omega-production.md)."""
     from solver.turbulence import SST
     from solver.validation.naca0012 import naca_turbulence
 

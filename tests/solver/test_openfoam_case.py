@@ -128,7 +128,7 @@ def test_naca_fv_schemes_gradient_options():
     assert "default pointCellsLeastSquares;" in text and "gradU cellLimited Gauss linear 1;" in text
     assert "div(phi,U) bounded Gauss linearUpwind gradU;" in text
     assert "interpolationSchemes { default linear; }" in plain       # the face flux of the results table
-    skew = fv_schemes(interpolation="skewCorrected linear")           # --interpolation (session 14)
+    skew = fv_schemes(interpolation="skewCorrected linear")           # --interpolation
     assert "interpolationSchemes { default skewCorrected linear; }" in skew and "gradU Gauss linear;" in skew
 
 

@@ -1,5 +1,5 @@
 """Resume after the driver dies: a real ``millfoil run`` process killed with SIGKILL mid-generation, then
-``millfoil resume`` (issue 12: no finished evaluation lost or solved twice, and the final population equal
+``millfoil resume`` (no finished evaluation lost or solved twice, and the final population equal
 to an uninterrupted run with the same seed). The problem is ZDT1 through the same driver, store and CLI,
 each evaluation sleeping a little so that the kill lands inside a generation."""
 

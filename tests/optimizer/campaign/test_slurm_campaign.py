@@ -1,6 +1,6 @@
 """A whole campaign on a real SLURM cluster (one node on 127.0.0.1, ``scripts/slurm/``), not a mock (slow).
 
-Issue 12: a tiny campaign runs through dask-jobqueue's ``SLURMCluster``; the workers' job is cancelled with
+A tiny campaign runs through dask-jobqueue's ``SLURMCluster``; the workers' job is cancelled with
 ``scancel`` in the middle of a generation (as a wall-time kill, an administrator or a preemption would),
 and the campaign must recover with nothing lost: it finishes, every design of every generation is stored
 exactly once, the evaluation the cancelled job was running is retried on a new job, and no evaluation is
