@@ -74,10 +74,6 @@ def test_malformed_config_names_key_file_and_line(tmp_path, name, text, key, lin
     assert key in message, message
 
 
-def test_at_least_thirty_malformed_configs():
-    assert len(MALFORMED) >= 30
-
-
 def test_unknown_key_lists_the_allowed_ones(tmp_path):
     path = tmp_path / "c.yaml"
     path.write_text("algorithm:\n  pop: 10\n")
