@@ -103,10 +103,10 @@ def _section(path: str, prop: dict, defs: dict) -> list[str]:
     lines = [f"## {path}", ""]
     about = prop.get("description") or model.get("description", "").strip().splitlines()[0]
     lines += [_sentence(about) + (" A list; each item has these keys." if listed else ""), ""]
-    lines += ["| key | type | default | range | meaning |", "| --- | --- | --- | --- | --- |"]
+    lines += ["| key | type | default | range, unit | meaning |", "| --- | --- | --- | --- | --- |"]
     nested = []
     for key, field in model.get("properties", {}).items():
-        if _model_of(field, defs)[0] is not None and key != "parameters":
+        if _model_of(field, defs)[0] is not None:
             nested.append((key, field))
             lines.append(f"| `{key}` | section | | | {_cell(_sentence(field.get('description', '')))} "
                          f"([below](#{_anchor(f'{path}.{key}')})) |")
@@ -136,6 +136,7 @@ def _model_of(prop: dict, defs: dict) -> tuple[dict | None, bool]:
 
 
 def _deref(prop: dict, defs: dict) -> dict:
+    """The definition a ``$ref`` points to, else ``prop`` itself."""
     return defs[prop["$ref"].rsplit("/", 1)[-1]] if "$ref" in prop else prop
 
 
@@ -165,22 +166,24 @@ def _default(prop: dict, required: bool) -> str:
 
 
 def _range(prop: dict) -> str:
-    """Bounds as an interval with the unit (``(0, 1]``, ``(0, inf) s``), from the key or from the number inside an
-    optional key: as a configuration error states them (:func:`optimizer.config.range_error`)."""
+    """Bounds as an interval with the unit (``(0, 1]``, ``(0, inf) s``; the unit alone for a key without bounds),
+    from the key or from the number inside an optional key: as a configuration error states them
+    (:func:`optimizer.config.range_error`)."""
     if "range" in prop:
         return str(prop["range"])
+    unit = f" {prop['unit']}" if prop.get("unit") else ""
     for source in [prop, *prop.get("anyOf", [])]:
         low = ("[", source["minimum"]) if "minimum" in source else ("(", source.get("exclusiveMinimum"))
         high = (source["maximum"], "]") if "maximum" in source else (source.get("exclusiveMaximum"), ")")
         if low[1] is not None or high[0] is not None:
             lo = "-inf" if low[1] is None else f"{low[1]:g}"
             hi = "inf" if high[0] is None else f"{high[0]:g}"
-            unit = f" {prop['unit']}" if prop.get("unit") else ""
             return f"{low[0] if low[1] is not None else '('}{lo}, {hi}{high[1] if high[0] is not None else ')'}{unit}"
-    return ""
+    return unit.strip()
 
 
 def _meaning(prop: dict) -> str:
+    """The key's description, then the reason for its bounds where the schema gives one (``why``)."""
     text = _sentence(prop.get("description", ""))
     if prop.get("why"):
         text += f" Bounds: {prop['why']}."
@@ -194,6 +197,7 @@ def _sentence(text: str) -> str:
 
 
 def _cell(text: str) -> str:
+    """``text`` fit for a table cell: ``|`` escaped, on one line."""
     return text.replace("|", "\\|").replace("\n", " ")
 
 
@@ -221,6 +225,7 @@ def cli_markdown() -> str:
 
 
 def _commands(root: argparse.ArgumentParser) -> Iterator[tuple[str, argparse.ArgumentParser, str]]:
+    """Each command of ``root``: its name, its parser and its one-line summary, in ``millfoil --help`` order."""
     for action in root._actions:
         if isinstance(action, argparse._SubParsersAction):
             summaries = {choice.dest: choice.help or "" for choice in action._choices_actions}
@@ -281,6 +286,7 @@ def _prose(text: str) -> str:
 
 
 def _dedent(lines: list[str]) -> list[str]:
+    """``lines`` less the indent they share."""
     indent = min(len(line) - len(line.lstrip()) for line in lines if line.strip())
     return [line[indent:] for line in lines]
 
@@ -298,6 +304,7 @@ def stale(root: Path) -> list[Path]:
 
 
 def main(argv: list[str] | None = None) -> int:
+    """Write the pages (or, with ``--check``, name each stale one and return 1); returns the exit status."""
     parser = argparse.ArgumentParser(prog="python -m optimizer.reference", description=__doc__.split("\n\n")[0])
     parser.add_argument("--check", action="store_true", help="write nothing; exit 1 if a page is stale")
     parser.add_argument("--root", type=Path, default=Path(__file__).resolve().parents[1],
