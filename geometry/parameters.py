@@ -75,10 +75,15 @@ class Parameter:
     bounds: tuple[float, float] | None = None
     fixed: float | None = None
 
-    def check(self, value: float) -> None:
+    @property
+    def domain_text(self) -> str:
+        """The domain as an interval, ``(0, 0.5]`` or ``[-90, 90]``, in the parameter's unit."""
         lo, hi = self.domain
-        low_bracket = "(" if self.open_low else "["
-        domain = f"{low_bracket}{lo:g}, {hi:g}]"
+        return f"{'(' if self.open_low else '['}{lo:g}, {hi:g}]"
+
+    def check(self, value: float) -> None:
+        domain = self.domain_text
+        lo, hi = self.domain
         if not math.isfinite(value):
             raise ParameterError(f"parameter '{self.name}' must be a finite number in {domain} {self.unit}, "
                                  f"got {value} ({self.description})")
@@ -296,6 +301,13 @@ class ParameterSpace:
             lower.append(lo)
             upper.append(hi)
         return cls(mode, continuity, tuple(names), np.array(lower), np.array(upper), pinned)
+
+    def role(self, name: str) -> str:
+        """What parameter ``name`` is in this space: ``fixed 0.005`` or its optimisation range ``[lo, hi]``."""
+        if name in self.fixed:
+            return f"fixed {self.fixed[name]:g}"
+        i = self.names.index(name)
+        return f"[{self.lower[i]:g}, {self.upper[i]:g}]"
 
     def spec(self, x: np.ndarray) -> BladeSpec:
         """The blade of one design vector."""

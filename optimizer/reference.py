@@ -76,13 +76,7 @@ def _blade_parameters() -> list[str]:
         for continuity in Continuity:
             space = ParameterSpace.default(mode, continuity)
             for name, param in parameters_of(mode, continuity).items():
-                if name in space.fixed:
-                    role = f"fixed `{space.fixed[name]:g}`"
-                else:
-                    i = space.names.index(name)
-                    role = f"[{space.lower[i]:g}, {space.upper[i]:g}]"
-                lo, hi = param.domain
-                row = (f"| `{name}` | {param.unit} | {'(' if param.open_low else '['}{lo:g}, {hi:g}] | {role} | "
+                row = (f"| `{name}` | {param.unit} | {param.domain_text} | {space.role(name)} | "
                        f"{_cell(param.description)} |")
                 rows.setdefault(row, (name, []))[1].append(continuity.value)
         lines += [f"### {mode.value} blades", "",

@@ -145,12 +145,5 @@ def run_space(args: argparse.Namespace) -> int:
     print(f"{blade.continuity.value} {blade.mode.value} blades: {len(space.names)} design variables")
     print(f"  {'name':9s} {'unit':4s} {'optimisation':24s} {'domain':16s} meaning")
     for name, param in parameters_of(blade.mode, blade.continuity).items():
-        if name in space.fixed:
-            role = f"fixed {space.fixed[name]:g}"
-        else:
-            i = space.names.index(name)
-            role = f"[{space.lower[i]:g}, {space.upper[i]:g}]"
-        lo, hi = param.domain
-        domain = f"{'(' if param.open_low else '['}{lo:g}, {hi:g}]"
-        print(f"  {name:9s} {param.unit:4s} {role:24s} {domain:16s} {param.description}")
+        print(f"  {name:9s} {param.unit:4s} {space.role(name):24s} {param.domain_text:16s} {param.description}")
     return EXIT_OK
