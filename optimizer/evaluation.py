@@ -16,6 +16,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from solver.convergence import ConvergenceClass
+
 if TYPE_CHECKING:
     from geometry import Profile
     from meshing import Mesh2D
@@ -23,9 +25,10 @@ if TYPE_CHECKING:
 
 #: Stages in pipeline order; :attr:`Evaluation.seconds` has one entry per stage that ran.
 STAGES = ("geometry", "mesh", "solve", "post")
-#: Statuses of a completed solve (figures available), best first; then the failures.
-SOLVED = ("converged", "stationary", "oscillating", "not_converged")
-FAILED = ("infeasible", "diverged", "failed")
+#: Statuses of a completed solve (figures available), best first: every convergence class but diverged.
+SOLVED = tuple(c for c in ConvergenceClass if c.solved)
+#: Statuses of an evaluation without figures.
+FAILED = ("infeasible", ConvergenceClass.DIVERGED.value, "failed")
 #: Blade wall parts of :class:`WallDistribution`.
 SIDES = ("suction", "pressure", "trailing_edge")
 
@@ -152,7 +155,7 @@ class Evaluation:
         """The scalar results, JSON-ready (the ``--json`` output of ``millfoil evaluate``)."""
         c = self.classification
         return {
-            "status": self.status, "stage": self.stage, "message": self.message, "converged": self.converged,
+            "status": str(self.status), "stage": self.stage, "message": self.message, "converged": self.converged,
             "model": self.model, "F_X": self.fx, "F_Y": self.fy, "F_X_span": self.fx_span,
             "F_Y_span": self.fy_span, "span": self.span, "C_L": self.c_l, "C_max": self.c_max,
             "Cp_min": self.cp_min, "Cp_wall_min": self.cp_wall_min, "yplus_max": self.yplus_max,

@@ -16,7 +16,7 @@ import numpy as np
 
 from meshing import BOUNDARY_GROUPS
 from optimizer.evaluation import SIDES, Evaluation, WallDistribution
-from solver import classify
+from solver import ConvergenceClass, classify
 
 if TYPE_CHECKING:
     from geometry import Profile
@@ -43,13 +43,13 @@ def figures_of_merit(config: Config, profile: Profile, flow: FlowResults) -> Eva
     span = fl.span_for(chord)
     q = 0.5 * fl.density * fl.speed**2
     cls = flow.classification or classify(flow.monitors, window=s.classify_window, tol=s.classify_tol,
-                                          converged=flow.converged, diverged=flow.status == "diverged")
+                                          converged=flow.converged, diverged=flow.status == ConvergenceClass.DIVERGED)
     status = flow.status if flow.classification is not None or flow.converged else cls.status
 
     forces = flow.forces(BLADE)
     fx, fy, c_max = forces.fx, forces.fy, flow.c_max
     values_from = "final iterate"
-    if status == "oscillating":
+    if status == ConvergenceClass.OSCILLATING:
         means = {k: cls.mean.get(k) for k in (f"fx:{BLADE}", f"fy:{BLADE}", "c_max")}
         if all(v is not None for v in means.values()):
             fx, fy, c_max = means.values()

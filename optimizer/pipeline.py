@@ -29,6 +29,7 @@ from optimizer.evaluation import Artifacts, Evaluation
 from optimizer.figures import BLADE, BOTTOM, INLET, OUTLET, TOP, figures_of_merit
 from solver import (
     SST,
+    ConvergenceClass,
     Fluid,
     MeshError,
     Problem,
@@ -82,8 +83,8 @@ def evaluate(config: Config, *, log: Log | None = None, every: int = 50,
         built = built.merged(Artifacts(mesh=mesh))
         flow = clock.run("solve", solve_flow, config, fvmesh, log=clock.say, every=every, warm_start=warm_start)
         built = built.merged(Artifacts(flow=flow))      # kept for saving, also when diverged (last finite iterate)
-        if flow.status == "diverged":
-            raise StageFailure("diverged", "solve", flow.message)
+        if flow.status == ConvergenceClass.DIVERGED:
+            raise StageFailure(ConvergenceClass.DIVERGED, "solve", flow.message)
         result = clock.run("post", figures_of_merit, config, profile, flow)
     except StageFailure as f:
         built = built.merged(f.built)

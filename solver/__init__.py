@@ -18,12 +18,13 @@ parameters ``intensity`` (default 0.05) and ``viscosity_ratio`` (default 10))::
     res.k, res.omega, res.nu_t, res.wall_shear("blade"), res.y_plus("blade")
 
 Start from another solution with ``solve_steady(problem, settings, mapped_state(problem, other_results))``;
-:func:`classify` tells converged, oscillating and drifting monitor histories apart. The validation cases
+:func:`classify` tells converged, oscillating and drifting monitor histories apart; the classes are the
+members of :class:`ConvergenceClass`, best first. The validation cases
 (``millfoil validate``) live in :mod:`solver.validation`, which the solver core does not import.
 """
 
 from .boundary import BOUNDARY_CONDITIONS, resolve_boundaries
-from .convergence import classify
+from .convergence import ConvergenceClass, classify
 from .fvmesh import FVMesh, MeshError, build_fvmesh, from_meshio, from_msh
 from .linalg import LINEAR_SOLVERS, SolverSettings
 from .problem import FlowState, Fluid, Problem, initial_state
@@ -34,7 +35,8 @@ from .turbulence import SST, SSTConstants
 from .warmstart import mapped_state, potential_start
 
 __all__ = [
-    "BOUNDARY_CONDITIONS", "FVMesh", "FlowResults", "FlowState", "Fluid", "Forces", "LINEAR_SOLVERS", "MeshError",
-    "Problem", "SST", "SSTConstants", "SimpleSettings", "SolverSettings", "build_fvmesh", "classify", "from_meshio",
-    "from_msh", "initial_state", "mapped_state", "potential_start", "resolve_boundaries", "solve_steady",
+    "BOUNDARY_CONDITIONS", "ConvergenceClass", "FVMesh", "FlowResults", "FlowState", "Fluid", "Forces",
+    "LINEAR_SOLVERS", "MeshError", "Problem", "SST", "SSTConstants", "SimpleSettings", "SolverSettings",
+    "build_fvmesh", "classify", "from_meshio", "from_msh", "initial_state", "mapped_state", "potential_start",
+    "resolve_boundaries", "solve_steady",
 ]

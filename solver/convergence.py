@@ -41,13 +41,47 @@ finite values gets ``None`` figures.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+import enum
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 
 import numpy as np
 
-#: Possible values of :attr:`Classification.status`, best first.
-STATUSES = ("converged", "stationary", "oscillating", "not_converged", "diverged")
+
+class ConvergenceClass(enum.StrEnum):
+    """The convergence class of a steady solve, best first (see the module docstring).
+
+    Members equal their strings (``ConvergenceClass.CONVERGED == "converged"``), so stores, JSON and
+    comparisons with plain strings keep working. ``converged`` and ``diverged`` are the solver's own
+    verdicts; ``stationary``, ``oscillating`` and ``not_converged`` come from :func:`classify`.
+    """
+
+    CONVERGED = "converged"
+    STATIONARY = "stationary"
+    OSCILLATING = "oscillating"
+    NOT_CONVERGED = "not_converged"
+    DIVERGED = "diverged"
+
+    @property
+    def rank(self) -> int:
+        """Position in the order best first (0 for ``converged``)."""
+        return _RANK[self]
+
+    @property
+    def solved(self) -> bool:
+        """The solve ran to an iterate whose figures can be read (every class but ``diverged``)."""
+        return self is not ConvergenceClass.DIVERGED
+
+    @classmethod
+    def worst(cls, classes: Iterable[str]) -> ConvergenceClass:
+        """The worst of ``classes`` (members or their strings); ValueError for an empty or unknown one."""
+        found = [cls(c) for c in classes]
+        if not found:
+            raise ValueError("the worst of no convergence classes is undefined")
+        return max(found, key=_RANK.__getitem__)
+
+
+_RANK = {c: i for i, c in enumerate(ConvergenceClass)}
 #: Fewer iterations than this cannot be classified (status ``not_converged``).
 MIN_SAMPLES = 8
 
@@ -56,13 +90,13 @@ MIN_SAMPLES = 8
 class Classification:
     """Verdict on a steady solve and its per-monitor figures over the last ``window`` iterations.
 
-    status: one of :data:`STATUSES`. mean, amplitude, drift: ``{monitor: value or None}`` in the
+    status: a :class:`ConvergenceClass`. mean, amplitude, drift: ``{monitor: value or None}`` in the
     monitor's unit (see the module docstring for the definitions). period: ``{monitor: iterations or
     None}``. window: number of iterations actually used. reason: one line saying why.
-    monitor_status: ``{monitor: "stationary" | "oscillating" | "not_converged"}``.
+    monitor_status: ``{monitor: ConvergenceClass}`` (``stationary``, ``oscillating`` or ``not_converged``).
     """
 
-    status: str
+    status: ConvergenceClass
     mean: dict
     amplitude: dict
     period: dict
@@ -79,8 +113,9 @@ class Classification:
 
     def to_dict(self) -> dict:
         """JSON-ready copy (plain floats, None for undefined figures)."""
-        return {"status": self.status, "reason": self.reason, "window": self.window,
-                "dominant_period": self.dominant_period, "monitor_status": dict(self.monitor_status),
+        return {"status": str(self.status), "reason": self.reason, "window": self.window,
+                "dominant_period": self.dominant_period,
+                "monitor_status": {k: str(v) for k, v in self.monitor_status.items()},
                 "mean": dict(self.mean), "amplitude": dict(self.amplitude), "period": dict(self.period),
                 "drift": dict(self.drift)}
 
@@ -124,23 +159,23 @@ def classify(monitors: Mapping[str, np.ndarray], *, window: int = 200, tol: floa
         shortest = x.size if shortest is None else min(shortest, x.size)
         if x.size < 2:
             mean[name] = amplitude[name] = drift[name] = period[name] = None
-            verdicts[name], why[name] = "not_converged", f"{x.size} finite values"
+            verdicts[name], why[name] = ConvergenceClass.NOT_CONVERGED, f"{x.size} finite values"
             continue
         f = _figures(x, float(np.abs(x_all).max()), tol, min_peak_fraction)
         mean[name], amplitude[name], drift[name], period[name] = f.mean, f.amplitude, f.drift, f.period
         verdicts[name], why[name] = _verdict(f, tol, drift_factor)
 
     if diverged:
-        status, reason = "diverged", "the solver reported divergence"
+        status, reason = ConvergenceClass.DIVERGED, "the solver reported divergence"
     elif converged:
-        status, reason = "converged", "the solver reported convergence"
+        status, reason = ConvergenceClass.CONVERGED, "the solver reported convergence"
     elif not monitors:
-        status, reason = "not_converged", "no monitors to classify"
+        status, reason = ConvergenceClass.NOT_CONVERGED, "no monitors to classify"
     elif shortest is not None and shortest < MIN_SAMPLES:
-        status = "not_converged"
+        status = ConvergenceClass.NOT_CONVERGED
         reason = f"only {shortest} finite monitor values (at least {MIN_SAMPLES} needed to classify)"
     else:
-        status = max(verdicts.values(), key=STATUSES.index)
+        status = ConvergenceClass.worst(verdicts.values())
         worst = [n for n, v in verdicts.items() if v == status]
         reason = "; ".join(f"{n}: {why[n]}" for n in worst)
     return Classification(status, mean, amplitude, period, drift, used, reason, verdicts)
@@ -165,15 +200,16 @@ def _figures(x: np.ndarray, history_max: float, tol: float, min_peak_fraction: f
     return _Figures(mean, amplitude, slope * w, period, scale, spread)
 
 
-def _verdict(f: _Figures, tol: float, drift_factor: float) -> tuple[str, str]:
+def _verdict(f: _Figures, tol: float, drift_factor: float) -> tuple[ConvergenceClass, str]:
     rel_drift, rel_spread = abs(f.drift) / f.scale, f.spread / f.scale
     if abs(f.drift) > tol * f.scale and abs(f.drift) > drift_factor * f.amplitude:
-        return "not_converged", (f"drifting: trend {f.drift:+.4g} over the window ({rel_drift:.2e} relative, "
-                                 f"> tol {tol:g} and > {drift_factor:g} x amplitude {f.amplitude:.3g})")
+        return ConvergenceClass.NOT_CONVERGED, (
+            f"drifting: trend {f.drift:+.4g} over the window ({rel_drift:.2e} relative, "
+            f"> tol {tol:g} and > {drift_factor:g} x amplitude {f.amplitude:.3g})")
     if f.spread <= tol * f.scale:
-        return "stationary", f"spread {rel_spread:.2e} relative <= tol {tol:g}"
+        return ConvergenceClass.STATIONARY, f"spread {rel_spread:.2e} relative <= tol {tol:g}"
     kind = f"periodic, period {f.period:.1f} iterations" if f.period is not None else "noisy (no dominant period)"
-    return "oscillating", (f"{kind}: mean {f.mean:.6g}, amplitude {f.amplitude:.3g} "
+    return ConvergenceClass.OSCILLATING, (f"{kind}: mean {f.mean:.6g}, amplitude {f.amplitude:.3g} "
                            f"({f.amplitude / f.scale:.2e} relative), no significant trend")
 
 

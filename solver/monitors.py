@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .convergence import classify
+from .convergence import ConvergenceClass, classify
 from .problem import FlowState, Problem, turbulent_fields
 from .results import FlowResults
 from .settings import SimpleSettings
@@ -47,8 +47,8 @@ def update_monitors(problem: Problem, s: FlowState, monitors: dict, cfg: SimpleS
     # the components summed by hand: numpy's reduction over a length-2 axis takes 15x as long
     monitors["c_max"].append(float(np.sqrt((s.u[:, 0] ** 2 + s.u[:, 1] ** 2).max())))
     if cfg.monitor_groups:
-        r = FlowResults(problem.mesh, problem.bnd, s.u, s.p, s.flux, {}, "", "", 0, problem.fluid.rho,
-                        problem.fluid.mu, **turbulent_fields(problem, s))
+        r = FlowResults(problem.mesh, problem.bnd, s.u, s.p, s.flux, {}, ConvergenceClass.NOT_CONVERGED, "", 0,
+                        problem.fluid.rho, problem.fluid.mu, **turbulent_fields(problem, s))
         for g in cfg.monitor_groups:
             f = r.forces(g).total
             monitors[f"fx:{g}"].append(float(f[0]))
@@ -172,12 +172,12 @@ def established(monitors: dict, it: int, cfg: SimpleSettings):
     if it < first_early_check(w, cfg):
         return None
     now = classify(arrays, window=w, tol=cfg.classify_tol)
-    if now.status not in ("oscillating", "not_converged"):
+    if now.status not in (ConvergenceClass.OSCILLATING, ConvergenceClass.NOT_CONVERGED):
         return None
     before = classify({k: v[:-w] for k, v in arrays.items()}, window=w, tol=cfg.classify_tol)
     windows_left = max(cfg.max_iter - it, 0) / w
     for name, verdict in now.monitor_status.items():
-        if verdict == "stationary":
+        if verdict == ConvergenceClass.STATIONARY:
             continue
         if before.monitor_status[name] != verdict or not _persists(now, before, name, verdict, windows_left,
                                                                    cfg.classify_tol):
@@ -229,7 +229,7 @@ def early_window(arrays: dict, cfg: SimpleSettings) -> int:
 def _persists(now, before, name: str, verdict: str, windows_left: float, tol: float) -> bool:
     """Whether monitor ``name`` keeps its verdict up to ``max_iter`` (see :func:`established`)."""
     limit = tol * max(abs(now.mean[name]), 1e-300)
-    if verdict == "oscillating":
+    if verdict == ConvergenceClass.OSCILLATING:
         a1, a0 = now.amplitude[name], before.amplitude[name]
         if not (a0 > 0 and a1 > 0 and a1 <= 1.5 * a0):
             return False
@@ -258,8 +258,8 @@ def classify_at_cap(monitors: dict, hist: dict, cfg: SimpleSettings):
     cls = classify(monitors, window=cfg.classify_window, tol=cfg.classify_tol)
     last = max(v[-1] for v in hist.values() if len(v)) if any(len(v) for v in hist.values()) else float("nan")
     head = f"reached max_iter = {cfg.max_iter} (largest scaled residual {last:.2e})"
-    if cls.status == "stationary":
-        return "converged", f"{head}; monitors stationary: {cls.reason}", cls
+    if cls.status == ConvergenceClass.STATIONARY:
+        return ConvergenceClass.CONVERGED, f"{head}; monitors stationary: {cls.reason}", cls
     return cls.status, f"{head}; {cls.reason}", cls
 
 

@@ -8,11 +8,12 @@ from pathlib import Path
 import numpy as np
 
 from .boundary import FIXED, BoundaryData
+from .convergence import ConvergenceClass
 from .fvmesh import CELL_TYPES, FVMesh
 from .gradient import ls_gradient
 
-#: Possible values of :attr:`FlowResults.status`.
-STATUSES = ("converged", "oscillating", "not_converged", "diverged")
+#: Possible values of :attr:`FlowResults.status`: the members of :class:`ConvergenceClass`.
+STATUSES = tuple(ConvergenceClass)
 
 
 @dataclass(frozen=True)
@@ -42,7 +43,8 @@ class FlowResults:
     u: ``(nc, 2)`` cell-centre velocity, m/s. p: ``(nc,)`` cell-centre static pressure, Pa.
     flux: ``(nf,)`` face mass flux owner -> neighbour, kg/(s m).
     residuals: ``{"u", "v", "continuity": (iterations,)}`` scaled residuals per outer iteration.
-    status: one of :data:`STATUSES`; ``message`` says why (for ``diverged``: iteration and variable).
+    status: a :class:`solver.convergence.ConvergenceClass`, never ``stationary`` (monitors stationary at
+        the cap make a ``converged`` solve); ``message`` says why (for ``diverged``: iteration and variable).
     rho (kg/m³), mu (Pa s): fluid properties used.
     k (m²/s²), omega (1/s), nu_t (m²/s): ``(nc,)`` turbulence fields (None when laminar).
     mu_wall: ``(nb,)`` effective viscosity of the boundary faces for the wall shear, Pa s: the molecular
@@ -58,7 +60,7 @@ class FlowResults:
     p: np.ndarray
     flux: np.ndarray
     residuals: dict
-    status: str
+    status: ConvergenceClass
     message: str
     iterations: int
     rho: float
@@ -72,9 +74,12 @@ class FlowResults:
     wall_treatment: str | None = None
     classification: object = None
 
+    def __post_init__(self) -> None:
+        self.status = ConvergenceClass(self.status)      # ValueError names a status outside the classes
+
     @property
     def converged(self) -> bool:
-        return self.status == "converged"
+        return self.status == ConvergenceClass.CONVERGED
 
     @property
     def c_max(self) -> float:

@@ -32,12 +32,11 @@ from typing import Any
 import numpy as np
 
 from optimizer.campaign.config import MONITOR_OF, CampaignConfig
+from solver.convergence import ConvergenceClass
 
 #: Minimised objective value of a design without usable values (pymoo needs finite numbers; it ranks
 #: such designs by their constraint violation only).
 FAILED_VALUE = 1.0e12
-#: Worst first: the class of a set of monitors is the worst of theirs.
-CLASSES = ("converged", "stationary", "oscillating", "not_converged", "diverged")
 
 
 class EmptySpaceError(ValueError):
@@ -243,7 +242,7 @@ def judge(record: Mapping[str, Any], figures: list[str]) -> tuple[str, str]:
     classes = {MONITOR_OF[f]: monitor_status.get(MONITOR_OF[f]) for f in figures}
     if any(c is None for c in classes.values()):
         return overall, f"class of the whole solve: {overall}"
-    worst = max(classes.values(), key=CLASSES.index)
+    worst = ConvergenceClass.worst(classes.values())
     detail = ", ".join(f"{m} {c}" for m, c in sorted(set(classes.items())))
     return worst, f"{worst} on the chosen figures' monitors ({detail}); whole solve {overall}"
 

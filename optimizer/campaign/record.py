@@ -133,7 +133,7 @@ def record_of(ev, config) -> dict:
     """The record of a pipeline :class:`~optimizer.evaluation.Evaluation` (see the module docstring)."""
     from optimizer.campaign.config import FIGURES
 
-    solved = ev.status in ("converged", "stationary", "oscillating", "not_converged")
+    solved = ev.ok
     if solved:
         status = "solved"
     elif ev.status in ("infeasible", "diverged"):

@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from solver.convergence import STATUSES, Classification, classify
+from solver.convergence import Classification, ConvergenceClass, classify
 
 IT = np.arange(1200)
 
@@ -96,7 +96,7 @@ def test_non_finite_values_never_produce_nan():
     assert c.mean["empty"] is None and c.mean["one"] is None and c.mean["bad"] is not None
     assert c.status == "not_converged" and "finite" in c.reason
     d = c.to_dict()
-    assert d["status"] in STATUSES
+    assert type(d["status"]) is str and ConvergenceClass(d["status"]) == c.status
 
 
 def test_short_histories_are_not_classified_and_bad_arguments_rejected():
@@ -114,3 +114,15 @@ def test_worst_monitor_decides():
     c = classify({"a": np.full(IT.size, 1.0), "b": osc}, window=200, tol=1e-3)
     assert c.status == "oscillating" and c.monitor_status["a"] == "stationary"
     assert c.reason.startswith("b:")
+
+
+def test_classes_are_ordered_best_first_and_equal_their_strings():
+    C = ConvergenceClass
+    assert list(C) == ["converged", "stationary", "oscillating", "not_converged", "diverged"]
+    assert C.worst(["converged", C.OSCILLATING, "stationary"]) is C.OSCILLATING
+    assert C.worst([C.DIVERGED, "not_converged"]) is C.DIVERGED
+    assert [c.rank for c in C] == list(range(5)) and not C.DIVERGED.solved and C.NOT_CONVERGED.solved
+    with pytest.raises(ValueError):
+        C.worst([])
+    with pytest.raises(ValueError):
+        C.worst(["settled"])
