@@ -36,6 +36,7 @@ import numpy as np
 from optimizer.campaign.config import CampaignConfig
 from optimizer.campaign.fields import prune_fields, with_fields
 from optimizer.campaign.problem import Assessment, CampaignProblem, Feasibility, initial_population, make_problem
+from optimizer.campaign.status import EvaluationStatus
 from optimizer.campaign.store import STORE_NAME, EvaluationRow, GenerationRow, Store, now
 
 #: pymoo never stops the loop itself: the driver counts generations.
@@ -317,7 +318,8 @@ class _Loop:
                 state.eta_s = self._eta(g, len(tasks) - state.done - state.failed, state.workers)
                 self.progress(state)
         rows = [known[k] for k in keys]
-        counts = {"cached": state.cached, "feasible": sum(1 for k in keys if known[k].status != "infeasible")}
+        feasible = sum(1 for k in keys if known[k].status != EvaluationStatus.INFEASIBLE)
+        counts = {"cached": state.cached, "feasible": feasible}
         return rows, counts
 
     def _assess(self, result, feasibility: Feasibility) -> Assessment:
@@ -326,7 +328,7 @@ class _Loop:
         try:
             return self.problem.assess(result.record, feasibility)
         except Exception as exc:    # a malformed record is a bug in the worker: recorded, not fatal
-            return self.problem.failed("error", f"cannot judge the record: {type(exc).__name__}: {exc}",
+            return self.problem.failed(EvaluationStatus.ERROR, f"cannot judge the record: {type(exc).__name__}: {exc}",
                                        feasibility)
 
     def _row(self, key: str, g: int, x: np.ndarray, a: Assessment, *, result=None, submitted=None) -> EvaluationRow:
@@ -358,8 +360,8 @@ class _Loop:
                                    feasible_share=counts["feasible"] / len(rows) if rows else None)
         state.hypervolume = hv
         by_status = self.store.count_by_status(g)
-        state.done = by_status.get("ok", 0)
-        state.failed = sum(n for s, n in by_status.items() if s not in ("ok", "infeasible"))
+        state.done = by_status.get(EvaluationStatus.OK, 0)
+        state.failed = sum(n for s, n in by_status.items() if EvaluationStatus.parse(s).failed)
         state.eta_s = self._eta(g, 0, state.workers)
         self.progress(state)
 
@@ -441,7 +443,7 @@ def _task(key: str, payload: dict, generation: int):
 def _feasible_share(keys, known, submitted) -> float | None:
     if not keys:
         return None
-    feasible = sum(1 for k in keys if k in submitted or (k in known and known[k].status != "infeasible"))
+    feasible = sum(1 for k in keys if k in submitted or (k in known and known[k].status != EvaluationStatus.INFEASIBLE))
     return feasible / len(keys)
 
 

@@ -32,6 +32,8 @@ from typing import Any
 import numpy as np
 
 from optimizer.campaign.config import MONITOR_OF, CampaignConfig
+from optimizer.campaign.record import SOLVED
+from optimizer.campaign.status import EvaluationStatus
 from solver.convergence import ConvergenceClass
 
 #: Minimised objective value of a design without usable values (pymoo needs finite numbers; it ranks
@@ -80,9 +82,9 @@ class Assessment:
     (None unless ``ok``). minimised: pymoo's F. constraints: ``{name: G}`` in the problem's order.
     """
 
-    status: str
+    status: EvaluationStatus
     reason: str
-    convergence: str | None
+    convergence: ConvergenceClass | None
     objectives: dict[str, float] | None
     minimised: list[float]
     constraints: dict[str, float]
@@ -149,12 +151,15 @@ class CampaignProblem:
     def infeasible(self, feasibility: Feasibility) -> Assessment:
         """A design that failed the geometric check: never meshed, its G values are the geometry's."""
         figure = {n: 0.0 for n in self.constraint_names[len(self.geometric_names):]}
-        return Assessment("infeasible", feasibility.reason, None, None, [FAILED_VALUE] * len(self.objectives),
+        return Assessment(EvaluationStatus.INFEASIBLE, feasibility.reason, None, None,
+                          [FAILED_VALUE] * len(self.objectives),
                           {**dict(zip(self.geometric_names, feasibility.values, strict=True)), **figure})
 
     def failed(self, status: str, reason: str, feasibility: Feasibility | None = None,
                convergence: str | None = None) -> Assessment:
-        """A feasible design without usable values: ``evaluation`` = 1 (violated)."""
+        """A feasible design without usable values: ``evaluation`` = 1 (violated). status: an
+        :class:`EvaluationStatus` or its string (ValueError for another)."""
+        status = EvaluationStatus.parse(status)
         geometric = feasibility.values if feasibility is not None else (0.0,) * len(self.geometric_names)
         constraints = {n: 0.0 for n in self.constraint_names}
         constraints.update(zip(self.geometric_names, geometric, strict=True))
@@ -163,24 +168,24 @@ class CampaignProblem:
 
     def assess(self, record: Mapping[str, Any], feasibility: Feasibility | None = None) -> Assessment:
         """Status, objectives and constraints of an evaluation ``record`` (see :mod:`.record`)."""
-        if record.get("status") != "solved":
-            return self.failed(record.get("status", "error"), record.get("reason", ""), feasibility,
+        if record.get("status") != SOLVED:
+            return self.failed(record.get("status", EvaluationStatus.ERROR), record.get("reason", ""), feasibility,
                                record.get("class"))
         figures_used = [o.figure for o in self.objectives] + [c.figure for c in self.config.constraints]
         cls, why = judge(record, figures_used)
         values = record.get("figures") or {}
-        if cls == "not_converged":
-            return self.failed("not_converged", f"{why}; more iterations needed", feasibility, cls)
-        if cls == "oscillating":
+        if cls == ConvergenceClass.NOT_CONVERGED:
+            return self.failed(EvaluationStatus.NOT_CONVERGED, f"{why}; more iterations needed", feasibility, cls)
+        if cls == ConvergenceClass.OSCILLATING:
             verdict = self._oscillating(record, figures_used)
             if verdict:
-                return self.failed("oscillating", f"{why}; {verdict}", feasibility, cls)
+                return self.failed(EvaluationStatus.OSCILLATING, f"{why}; {verdict}", feasibility, cls)
             values = {**values, **(record.get("window_figures") or {})}
         missing = [f for f in figures_used if values.get(f) is None]
         if missing:
             reasons = record.get("missing") or {}
             text = ", ".join(f"{f} ({reasons.get(f, 'not reported')})" for f in missing)
-            return self.failed("solve_failed", f"no value for {text}", feasibility, cls)
+            return self.failed(EvaluationStatus.SOLVE_FAILED, f"no value for {text}", feasibility, cls)
         return self._accepted(values, cls, why, feasibility)
 
     def _accepted(self, values: Mapping[str, float], cls: str, why: str,
@@ -201,7 +206,7 @@ class CampaignProblem:
                 scale = abs(bound) if bound != 0 else 1.0
                 constraints[name] = (v - bound) / scale if kind == "upper" else (bound - v) / scale
         constraints["evaluation"] = 0.0
-        return Assessment("ok", why, cls, objectives, minimised, constraints)
+        return Assessment(EvaluationStatus.OK, why, cls, objectives, minimised, constraints)
 
     def _oscillating(self, record: Mapping[str, Any], figures: list[str]) -> str:
         """Why an oscillating result is rejected under the policy ('' when accepted)."""

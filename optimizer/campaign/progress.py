@@ -97,7 +97,7 @@ def status_of(directory: str | Path) -> dict:
     by_status: dict[str, int] = {}
     by_class: dict[str, int] = {}
     for r in rows:
-        by_status[r.status] = by_status.get(r.status, 0) + 1
+        by_status[str(r.status)] = by_status.get(r.status, 0) + 1
         if r.convergence:
             by_class[r.convergence] = by_class.get(r.convergence, 0) + 1
     labels = [o.label for o in config.objectives]

@@ -38,8 +38,12 @@ import time
 from collections.abc import Callable
 from typing import Any
 
-#: Pipeline failure ``(status, stage)`` -> record status.
-_FAILED = {"geometry": "geometry_failed", "mesh": "mesh_failed", "solve": "solve_failed", "post": "error"}
+from optimizer.campaign.status import STAGE_FAILED, EvaluationStatus
+from solver.convergence import ConvergenceClass
+
+#: Record status of an evaluation whose solve ran (its figures exist); the driver's assessment turns it into
+#: an :class:`EvaluationStatus` under the convergence policy. Every other record status is one already.
+SOLVED = "solved"
 _pinned = False
 
 
@@ -53,7 +57,8 @@ def evaluate_payload(payload: dict) -> dict:
     kind = payload.get("kind")
     handler = HANDLERS.get(kind)
     if handler is None:
-        return {"status": "error", "reason": f"unknown payload kind {kind!r}; known: {', '.join(HANDLERS)}"}
+        return {"status": EvaluationStatus.ERROR,
+                "reason": f"unknown payload kind {kind!r}; known: {', '.join(HANDLERS)}"}
     return handler(payload)
 
 
@@ -96,7 +101,7 @@ def evaluate_blade_payload(payload: dict) -> dict:
     try:
         config = blade_config(payload)
     except Exception as exc:     # a payload the driver built from a validated config: a bug, say so
-        return {"status": "error", "reason": f"bad payload: {type(exc).__name__}: {exc}"}
+        return {"status": EvaluationStatus.ERROR, "reason": f"bad payload: {type(exc).__name__}: {exc}"}
     deadline = payload.get("deadline_s")
     passed = []
 
@@ -108,8 +113,8 @@ def evaluate_blade_payload(payload: dict) -> dict:
     ev = _pipeline()(config, log=watch if deadline is not None else None, every=1 if deadline is not None else 0)
     record = record_of(ev, config)
     if passed:
-        record.update(status="timeout", reason=f"stopped at the runner's deadline; {record['reason']}")
-    elif record["status"] == "solved" and payload.get("fields"):
+        record.update(status=EvaluationStatus.TIMEOUT, reason=f"stopped at the runner's deadline; {record['reason']}")
+    elif record["status"] == SOLVED and payload.get("fields"):
         keep_fields(ev, config, payload["fields"], record)
     record["seconds"]["total"] = time.perf_counter() - t0
     record["seconds"]["cpu"] = time.process_time() - cpu0     # the worker's CPU time: what load does not inflate
@@ -135,11 +140,11 @@ def record_of(ev, config) -> dict:
 
     solved = ev.ok
     if solved:
-        status = "solved"
-    elif ev.status in ("infeasible", "diverged"):
-        status = ev.status
+        status = SOLVED
+    elif ev.status in (EvaluationStatus.INFEASIBLE, EvaluationStatus.DIVERGED):
+        status = EvaluationStatus(ev.status)
     else:
-        status = _FAILED.get(ev.stage or "", "error")
+        status = STAGE_FAILED.get(ev.stage or "", EvaluationStatus.ERROR)
     cls = ev.classification
     monitors = {}
     if cls is not None:
@@ -200,9 +205,9 @@ def evaluate_zdt1_payload(payload: dict) -> dict:
     if payload.get("delay"):
         time.sleep(float(payload["delay"]))
     f1, f2 = zdt1(payload["x"])
-    return {"status": "solved", "reason": "analytic", "class": "converged", "figures": {"f1": f1, "f2": f2},
-            "window_figures": None, "monitors": {}, "missing": {}, "cells": None, "iterations": None,
-            "seconds": {"total": time.perf_counter() - t0}}
+    return {"status": SOLVED, "reason": "analytic", "class": ConvergenceClass.CONVERGED,
+            "figures": {"f1": f1, "f2": f2}, "window_figures": None, "monitors": {}, "missing": {}, "cells": None,
+            "iterations": None, "seconds": {"total": time.perf_counter() - t0}}
 
 
 #: Payload kinds and their handlers (STYLE.md §7: a registry keyed by a string).

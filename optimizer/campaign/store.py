@@ -38,15 +38,14 @@ from typing import Any
 
 import numpy as np
 
+from optimizer.campaign.status import EvaluationStatus
+from solver.convergence import ConvergenceClass
+
 #: File name of the store in the run directory.
 STORE_NAME = "campaign.sqlite"
 #: Schema version written in ``PRAGMA user_version``; bump on any change of the tables.
 SCHEMA_VERSION = 1
 
-#: Evaluation statuses. ``ok``: the solve ran and its values were accepted under the convergence policy;
-#: the others say why a design has no usable values (it enters the optimiser as a violated constraint).
-STATUSES = ("ok", "infeasible", "geometry_failed", "mesh_failed", "solve_failed", "diverged", "not_converged",
-            "oscillating", "timeout", "worker_lost", "error")
 #: Campaign states.
 STATES = ("running", "finished", "interrupted", "failed")
 
@@ -153,12 +152,12 @@ class EvaluationRow:
     generation: int
     x: list[float]
     parameters: dict[str, float]
-    status: str
+    status: EvaluationStatus
     reason: str
     minimised: list[float]
     constraints: dict[str, float]
     finished: str = field(default_factory=now)
-    convergence: str | None = None
+    convergence: ConvergenceClass | None = None
     objectives: dict[str, float | None] | None = None
     figures: dict[str, Any] | None = None
     monitors: dict[str, Any] | None = None
@@ -170,12 +169,13 @@ class EvaluationRow:
     submitted: str | None = None
 
     def __post_init__(self) -> None:
-        if self.status not in STATUSES:
-            raise ValueError(f"unknown evaluation status {self.status!r}; allowed: {', '.join(STATUSES)}")
+        object.__setattr__(self, "status", EvaluationStatus.parse(self.status))
+        if self.convergence is not None:
+            object.__setattr__(self, "convergence", ConvergenceClass(self.convergence))
 
     @property
     def ok(self) -> bool:
-        return self.status == "ok"
+        return self.status is EvaluationStatus.OK
 
     @property
     def feasible(self) -> bool:

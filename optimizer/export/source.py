@@ -27,8 +27,8 @@ def run_tool_path(run: Run, design: Design) -> tuple[ToolPath, list[str]]:
                           "path of a cutter, and cannot be sent to a machine unchanged; export a tool-path "
                           "campaign's design (blade.mode: toolpath)")
     row = design.row
-    if row.status != "ok":
-        raise ExportError(f"design {design.number} ({row.key[:10]}) has status {row.status!r}: {row.reason}; only "
+    if not row.ok:
+        raise ExportError(f"design {design.number} ({row.key[:10]}) has status '{row.status}': {row.reason}; only "
                           "evaluated, feasible designs are exported")
     violated = [name for name, g in row.constraints.items() if g > 0.0]
     if violated:

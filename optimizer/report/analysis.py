@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from optimizer.report.run import Design, Run
+from solver.convergence import ConvergenceClass
 
 #: Table 7 of Vessaz et al. (2013): max |F_Y| [N], max C_L, min C_max [m/s], min |C_p,min| per case.
 PAPER_TABLE7 = {
@@ -89,7 +90,7 @@ def points(run: Run) -> list[Point]:
 def _amplitude(monitors: dict, name: str) -> float:
     m = monitors.get(name) or {}
     a = m.get("amplitude")
-    return float(a) if a is not None and np.isfinite(a) and m.get("status") == "oscillating" else 0.0
+    return float(a) if a is not None and np.isfinite(a) and m.get("status") == ConvergenceClass.OSCILLATING else 0.0
 
 
 def front(pts: list[Point], x: str = "cmax", y: str = "fy") -> list[Point]:

@@ -17,13 +17,15 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from optimizer.campaign.fields import outline  # noqa: E402
+from optimizer.campaign.status import EvaluationStatus  # noqa: E402
 from optimizer.report.analysis import Health, Point, front  # noqa: E402
 from optimizer.report.run import Run  # noqa: E402
 
 plt.rcParams.update({"svg.fonttype": "path", "font.size": 9, "svg.hashsalt": "millfoil"})
 
 #: Marker of each status that has values (solved, possibly rejected); feasible accepted designs are dots.
-STATUS_MARKERS = {"ok": "o", "oscillating": "x", "not_converged": "+", "diverged": "1", "timeout": "2"}
+STATUS_MARKERS = {EvaluationStatus.OK: "o", EvaluationStatus.OSCILLATING: "x", EvaluationStatus.NOT_CONVERGED: "+",
+                  EvaluationStatus.DIVERGED: "1", EvaluationStatus.TIMEOUT: "2"}
 RUN_MARKERS = ("o", "s", "^", "D", "v", "P", "*", "h")
 AXES = {"fy": "|F_Y| over the span [N]", "cl": "C_L [-]", "cmax": "C_max [m/s]", "cpmin": "|C_p,min| [-]"}
 
@@ -53,8 +55,9 @@ def pareto_figure(runs: list[tuple[Run, list[Point]]], x: str, y: str, path: Pat
         for status in sorted({p.status for p in bad}):
             sel = [p for p in bad if p.status == status]
             ax.scatter([p.value(x) for p in sel], [p.value(y) for p in sel], marker=STATUS_MARKERS.get(status, "x"),
-                       color="firebrick" if status != "ok" else "0.5", s=26, linewidths=0.9, zorder=2,
-                       label=f"{run.name}: {len(sel)} {'constraint violated' if status == 'ok' else status}")
+                       color="firebrick" if status != EvaluationStatus.OK else "0.5", s=26, linewidths=0.9,
+                       zorder=2, label=f"{run.name}: {len(sel)} "
+                                       f"{'constraint violated' if status == EvaluationStatus.OK else status}")
         f = front(pts, x, y) if x in ("cmax", "cpmin") else front(pts, y, x)
         if len(f) > 1:
             ax.plot([p.value(x) for p in f], [p.value(y) for p in f], "-", color=colour, lw=1.2, zorder=4,

@@ -20,7 +20,9 @@ import numpy as np
 from geometry.examples import TABLE4_C2_DESIGN
 from optimizer.campaign.config import CampaignConfig
 from optimizer.campaign.fields import fields_path, write_fields
+from optimizer.campaign.status import EvaluationStatus as Status
 from optimizer.campaign.store import STORE_NAME, EvaluationRow, GenerationRow, Store
+from solver.convergence import ConvergenceClass
 
 #: Table 5 of the paper (tool-path G1, R = 5 mm; d_s4 = d_p4 = 2 mm machined, see configs/examples).
 TABLE5_G1_TOOLPATH = {"L": 0.1, "alpha": 30.0, "beta1": 0.0, "beta1bar": 60.0, "R": 0.005, "u_s2": 0.2,
@@ -125,14 +127,15 @@ def _row(key: str, generation: int, names: list[str], values: dict, rng: np.rand
     constraints = {"eq21_inlet": -0.5, "eq21_outlet": -0.5, "eq22_curvature": -0.2, "sides_simple": -1.0,
                    "machined_intact": -1.0, "evaluation": 0.0}
     if draw < 0.1:
-        return EvaluationRow(**base, status="infeasible", reason="eq22_curvature: radius 4.1 mm < R = 5 mm",
+        return EvaluationRow(**base, status=Status.INFEASIBLE, reason="eq22_curvature: radius 4.1 mm < R = 5 mm",
                              minimised=[1e12, 1e12], constraints={**constraints, "eq22_curvature": 0.18})
     if draw < 0.2:
-        return EvaluationRow(**base, status="mesh_failed", reason="a cell is below the quality thresholds",
+        return EvaluationRow(**base, status=Status.MESH_FAILED, reason="a cell is below the quality thresholds",
                              minimised=[1e12, 1e12], constraints={**constraints, "evaluation": 1.0},
                              seconds={"geometry": 0.2, "mesh": 3.0, "total": 3.2}, wall_seconds=3.3)
-    cls = "oscillating" if draw > 0.75 else ("stationary" if draw > 0.6 else "converged")
-    amplitude = 0.008 * lift if cls == "oscillating" else 0.0
+    cls = (ConvergenceClass.OSCILLATING if draw > 0.75
+           else ConvergenceClass.STATIONARY if draw > 0.6 else ConvergenceClass.CONVERGED)
+    amplitude = 0.008 * lift if cls == ConvergenceClass.OSCILLATING else 0.0
     span = 0.004                                  # 0.04 L, m: lift is in N over the span, fy in N/m
     fy = -lift / span
     figures = {"fx": 0.1 * lift / span, "fy": fy, "fx_span": 0.1 * lift, "fy_span": -lift,
@@ -143,7 +146,7 @@ def _row(key: str, generation: int, names: list[str], values: dict, rng: np.rand
                 "c_max": {"mean": c_max, "amplitude": amplitude * c_max / lift, "drift": 0.0,
                           "period": 40 if amplitude else None, "status": cls}}
     solve = 40.0 + 30.0 * rng.random()
-    return EvaluationRow(**base, status="ok", reason="", convergence=cls, objectives={"|fy|": -fy, "c_max": c_max},
+    return EvaluationRow(**base, status=Status.OK, reason="", convergence=cls, objectives={"|fy|": -fy, "c_max": c_max},
                          minimised=[fy, c_max], constraints=constraints, figures=figures, monitors=monitors,
                          cells=9000 + int(2000 * rng.random()), iterations=800 + int(600 * rng.random()),
                          seconds={"geometry": 0.2, "mesh": 3.0, "solve": solve, "post": 0.3, "total": solve + 3.5},
@@ -166,7 +169,7 @@ def _generation(store: Store, g: int, members: list[str], offspring: list[str]) 
     rows = store.get_many(members + offspring)
     F = np.array([rows[k].minimised for k in members if rows[k].feasible])
     hv = _hypervolume(F, np.array([-10000.0, 16.0])) if len(F) else None
-    feasible = sum(rows[k].status != "infeasible" for k in offspring)
+    feasible = sum(rows[k].status != Status.INFEASIBLE for k in offspring)
     return GenerationRow(g, members, [0 if rows[k].feasible else None for k in members],
                          [1.0 if rows[k].feasible else None for k in members], offspring, feasible,
                          feasible / len(offspring), 0, hv, {"synthetic": True}, finished=_time(g, 59))

@@ -11,7 +11,8 @@ from pathlib import Path
 
 import pytest
 
-from optimizer.campaign.store import STATUSES, STORE_NAME, Store
+from optimizer.campaign.status import EvaluationStatus
+from optimizer.campaign.store import STORE_NAME, Store
 
 pytestmark = pytest.mark.slow
 
@@ -31,7 +32,7 @@ def test_tiny_cfd_campaign_on_a_local_cluster(tmp_path):
         assert store.campaign().state == "finished"
     assert len(generations) == 2 and all(len(g.members) == 4 for g in generations)
     assert 4 <= len(rows) <= 8
-    assert all(r.status in STATUSES and r.reason for r in rows)
+    assert all(r.status in list(EvaluationStatus) and r.reason for r in rows)
     solved = [r for r in rows if r.status != "infeasible"]
     assert len({r.worker for r in solved}) == 2                       # both worker processes took work
     assert all(r.worker.startswith("tcp://") for r in solved)

@@ -9,7 +9,8 @@ import sys
 
 import pytest
 
-from optimizer.campaign.store import STATUSES, EvaluationRow, GenerationRow, Store
+from optimizer.campaign.status import EvaluationStatus
+from optimizer.campaign.store import EvaluationRow, GenerationRow, Store
 
 
 def row(key: str, generation: int = 0, status: str = "ok", **changes) -> EvaluationRow:
@@ -56,7 +57,7 @@ def test_unknown_status_is_refused():
     with pytest.raises(ValueError, match="allowed: ok, infeasible"):
         row("a", status="fine")
     assert {"ok", "infeasible", "mesh_failed", "diverged", "not_converged", "oscillating", "timeout",
-            "worker_lost", "error"} <= set(STATUSES)
+            "worker_lost", "error"} <= set(EvaluationStatus)
 
 
 def test_campaign_row_and_states(tmp_path):
