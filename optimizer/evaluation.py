@@ -109,9 +109,10 @@ class Evaluation:
     converged: the solver's own convergence test passed.
     classification: :class:`solver.convergence.Classification` of the monitors, or None (no solve).
     fx, fy: force on the blade per unit span, N/m (x along the inflow). fx_span, fy_span: the same
-        times the span depth, N. span: the span depth used, m. c_l: lift coefficient of Eq. 23
-        ``F_Y / (½ rho C0² L span)``. c_max: largest velocity magnitude over the cell centres, m/s.
-        cp_min: ``1 - C_max² / C0²``. cp_wall_min: smallest wall C_p (with p_ref = inlet mean).
+        times the span depth, N. span: the span depth used, m. chord: the profile's chord L, m.
+        c_l: lift coefficient of Eq. 23 ``F_Y / (½ rho C0² L span)``. c_max: largest velocity magnitude
+        over the cell centres, m/s. cp_min: ``1 - C_max² / C0²``. cp_wall_min: smallest wall C_p (with
+        p_ref = inlet mean).
         Where the status is ``oscillating``, fx, fy and c_max are the window means of their monitors
         (``values_from`` says which).
     yplus_max, yplus_mean: y+ of the wall-adjacent cell centres on the blade (face-length weighted mean).
@@ -131,6 +132,7 @@ class Evaluation:
     fx_span: float | None = None
     fy_span: float | None = None
     span: float | None = None
+    chord: float | None = None
     c_l: float | None = None
     c_max: float | None = None
     cp_min: float | None = None

@@ -1,7 +1,9 @@
 """Figures of merit of one solved blade: forces, C_L (Eq. 23), C_max, C_p,min, y+ and wall distributions.
 
 :func:`figures_of_merit` reduces a :class:`solver.FlowResults` to the figures of the paper (Vessaz et al.
-2013) and returns them as an :class:`~optimizer.evaluation.Evaluation`; :func:`wall_distribution` gives
+2013) and returns them as an :class:`~optimizer.evaluation.Evaluation`; :func:`lift_coefficient` and
+:func:`pressure_coefficient_min` are the definitions of C_L and C_p,min that every figure, the campaign's
+window means included, is computed with; :func:`wall_distribution` gives
 C_p, c_f and y+ along each side of the blade. The solver knows meshes and fields, never blades: splitting
 the blade wall into suction side, pressure side and trailing edge uses the :class:`geometry.Profile` (its
 leading- and trailing-edge indices) and is done here. See ``docs/explanation/evaluation.md``.
@@ -28,6 +30,19 @@ if TYPE_CHECKING:
 INLET, OUTLET, TOP, BOTTOM, BLADE = BOUNDARY_GROUPS
 
 
+def lift_coefficient(lift: float, density: float, speed: float, chord: float, span: float) -> float:
+    """C_L of Eq. 23, ``F_Y / (½ rho C0² L span)``: lift: F_Y over the span depth, N (negative when the
+    blade is pushed towards -y); density rho, kg/m³; speed C0, m/s (> 0); chord L, m (> 0, the
+    profile's); span: the span depth, m (> 0)."""
+    return lift / (0.5 * density * speed**2 * chord * span)
+
+
+def pressure_coefficient_min(c_max: float, speed: float) -> float:
+    """C_p,min ``= 1 - C_max² / C0²`` (Bernoulli from the free stream, ≤ 1): c_max, the largest velocity
+    magnitude, and speed C0, both m/s (C0 > 0)."""
+    return 1.0 - (c_max / speed) ** 2
+
+
 def figures_of_merit(config: Config, profile: Profile, flow: FlowResults) -> Evaluation:
     """The evaluation of a solved blade: status and classification, F_X, F_Y (N/m and N over the span),
     C_L, C_max, C_p,min, wall C_p min, y+ max and mean, and the wall distribution (SI units).
@@ -41,7 +56,6 @@ def figures_of_merit(config: Config, profile: Profile, flow: FlowResults) -> Eva
     s, fl = config.solver, config.flow
     chord = profile.chord
     span = fl.span_for(chord)
-    q = 0.5 * fl.density * fl.speed**2
     cls = flow.classification or classify(flow.monitors, window=s.classify_window, tol=s.classify_tol,
                                           converged=flow.converged, diverged=flow.status == ConvergenceClass.DIVERGED)
     status = flow.status if flow.classification is not None or flow.converged else cls.status
@@ -57,15 +71,16 @@ def figures_of_merit(config: Config, profile: Profile, flow: FlowResults) -> Eva
 
     wall = wall_distribution(flow, profile, fl.speed, fl.density)
     values = {
-        "fx": fx, "fy": fy, "fx_span": fx * span, "fy_span": fy * span, "c_l": fy * span / (q * chord * span),
-        "c_max": c_max, "cp_min": 1.0 - (c_max / fl.speed) ** 2, "cp_wall_min": float(wall.cp.min()),
+        "fx": fx, "fy": fy, "fx_span": fx * span, "fy_span": fy * span,
+        "c_l": lift_coefficient(fy * span, fl.density, fl.speed, chord, span),
+        "c_max": c_max, "cp_min": pressure_coefficient_min(c_max, fl.speed), "cp_wall_min": float(wall.cp.min()),
         "yplus_max": float(wall.y_plus.max()),
         "yplus_mean": float(np.dot(wall.y_plus, wall.length) / wall.length.sum()),
     }
     missing = {k: "not finite" for k, v in values.items() if not math.isfinite(v)}
     figures = {k: None if k in missing else float(v) for k, v in values.items()}
     return Evaluation(status, None, f"{flow.message}; classification: {cls.reason}", converged=flow.converged,
-                      classification=cls, span=span, values_from=values_from, iterations=flow.iterations,
+                      classification=cls, span=span, chord=chord, values_from=values_from, iterations=flow.iterations,
                       cells=flow.mesh.n_cells, model=s.model, missing=missing, wall=wall, **figures)
 
 

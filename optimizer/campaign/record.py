@@ -162,14 +162,15 @@ def record_of(ev, config) -> dict:
 
 
 def window_figures(monitors: dict, ev, config) -> dict:
-    """Figures from the monitors' window means (forces per unit span, C_max), with the pipeline's
-    definitions: ``F·span``, ``C_L = F_Y / (½ rho C0² L)``, ``C_p,min = 1 - C_max² / C0²``."""
+    """Figures from the monitors' window means (forces per unit span, C_max) with the pipeline's
+    definitions: ``F·span``, C_L (:func:`optimizer.figures.lift_coefficient`, with the evaluation's span and
+    profile chord) and C_p,min (:func:`optimizer.figures.pressure_coefficient_min`)."""
+    from optimizer.figures import lift_coefficient, pressure_coefficient_min
+
     fx = (monitors.get("fx:blade") or {}).get("mean")
     fy = (monitors.get("fy:blade") or {}).get("mean")
     c_max = (monitors.get("c_max") or {}).get("mean")
-    span = ev.span
-    chord = float(config.blade.parameters.get("L", 0.1))
-    q = 0.5 * config.flow.density * config.flow.speed ** 2
+    span, chord, flow = ev.span, ev.chord, config.flow
     out: dict[str, float | None] = {}
     if fx is not None:
         out["fx"] = fx
@@ -177,10 +178,10 @@ def window_figures(monitors: dict, ev, config) -> dict:
     if fy is not None:
         out["fy"] = fy
         out["fy_span"] = fy * span if span else None
-        out["c_l"] = fy / (q * chord)
+        out["c_l"] = lift_coefficient(fy * span, flow.density, flow.speed, chord, span) if span and chord else None
     if c_max is not None:
         out["c_max"] = c_max
-        out["cp_min"] = 1.0 - (c_max / config.flow.speed) ** 2
+        out["cp_min"] = pressure_coefficient_min(c_max, flow.speed)
     return out
 
 

@@ -3,6 +3,7 @@
 import json
 
 import numpy as np
+import pytest
 
 from optimizer.evaluation import FAILED, SOLVED, STAGES, Artifacts, Evaluation, finite
 
@@ -28,3 +29,11 @@ def test_artifacts_merge_keeps_what_was_built():
     assert (built.profile, built.mesh, built.flow) == ("p", "m", None)
     assert built.merged(Artifacts()) == built and built.merged(Artifacts(mesh="n")).mesh == "n"
     assert "artifacts" not in Evaluation("failed", "mesh", "x", artifacts=built).summary()
+
+
+def test_lift_and_pressure_coefficients_follow_their_definitions():
+    from optimizer.figures import lift_coefficient, pressure_coefficient_min
+
+    # Eq. 23 with F_Y over a 4 mm span of a 0.1 m chord in water at 10 m/s: F_Y / (½ rho C0² L span)
+    assert lift_coefficient(-40.0, 998.2, 10.0, 0.1, 0.004) == pytest.approx(-40.0 / (0.5 * 998.2 * 100 * 0.1 * 0.004))
+    assert pressure_coefficient_min(10.0, 10.0) == 0.0 and pressure_coefficient_min(20.0, 10.0) == -3.0

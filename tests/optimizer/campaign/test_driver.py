@@ -126,7 +126,8 @@ def fake_pipeline(config, *, log=None, every=0, warm_start=None):
                          {"fy:blade": 0.0, "c_max": 0.0, "fx:blade": 0.0}, {}, {}, 200, "converged",
                          {"fy:blade": "stationary", "c_max": "stationary", "fx:blade": "stationary"})
     return Evaluation("converged", None, "converged", converged=True, classification=cls, fx=10.0, fy=fy,
-                      c_max=c_max, span=0.004, cells=5000, iterations=900, seconds={"mesh": 0.1, "solve": 0.3})
+                      c_max=c_max, span=0.004, chord=0.1, cells=5000, iterations=900,
+                      seconds={"mesh": 0.1, "solve": 0.3})
 
 
 @pytest.fixture
