@@ -8,8 +8,9 @@ A folder of one evaluation holds what exists of ``mesh.msh`` (gmsh 2.2), ``field
 Every output of a command goes through :class:`Outputs`: each file is written under a temporary name in
 its own directory and renamed onto its name (:func:`os.replace`, atomic on one file system) only when all
 of them are written, so a failure part-way — a plot that cannot be drawn after the CSV, a full disk —
-leaves no file, half-written or not. :func:`check_output_file` and :func:`check_output_directory` refuse
-a location that cannot be written before the first stage runs (:class:`OutputError`, exit status 2).
+leaves no file, half-written or not; :func:`write_atomic` does the same for one file.
+:func:`check_output_file` and :func:`check_output_directory` refuse a location that cannot be written
+before the first stage runs (:class:`OutputError`, exit status 2).
 """
 
 from __future__ import annotations
@@ -50,6 +51,15 @@ def write_all(files: Iterable[tuple[str | Path, Callable[[Path], object]]]) -> l
             return outputs.commit()
     except Exception as exc:     # any writer's error: the files are discarded, the user gets one line
         raise WriteFailure(f"cannot write {path}: {type(exc).__name__}: {exc}; no file was written") from exc
+
+
+def write_atomic(path: str | Path, write: Callable[[Path], object]) -> Path:
+    """Write one file whole or not at all: ``write(temporary path)`` beside ``path`` (same suffix), then
+    renamed onto ``path`` (:class:`Outputs`; the directory is created). A writer's exception propagates
+    and leaves nothing behind. Returns ``path``."""
+    with Outputs() as outputs:
+        outputs.stage(path, write)
+        return outputs.commit()[0]
 
 
 def check_output_file(path: str | Path, option: str, suffixes: Iterable[str]) -> Path:

@@ -175,7 +175,7 @@ def _run(config, problem, store, directory, runner, fn, progress, log) -> Outcom
         store.end_campaign("failed", f"{type(exc).__name__}: {exc}")
         raise
     store.end_campaign("finished")
-    return Outcome(directory, "finished", len(store.generations()), pareto_front(store, problem),
+    return Outcome(directory, "finished", len(store.generations()), store.front(),
                    problem.objective_labels)
 
 
@@ -448,19 +448,6 @@ def _feasible_share(keys, known, submitted) -> float | None:
 
 
 # ------------------------------------------------------------------------------------------ results
-def pareto_front(store: Store, problem: CampaignProblem) -> list[EvaluationRow]:
-    """The non-dominated designs among all the run's feasible evaluations, sorted by the first objective."""
-    rows = [r for r in store.evaluations() if r.feasible]
-    if not rows:
-        return []
-    from pymoo.util.nds.non_dominated_sorting import NonDominatedSorting
-
-    F = np.array([r.minimised for r in rows], float)
-    front = NonDominatedSorting().do(F, only_non_dominated_front=True)
-    chosen = sorted((rows[i] for i in front), key=lambda r: r.minimised[0])
-    return chosen
-
-
 def final_population(store: Store) -> list[str]:
     """Keys of the last stored population (in order)."""
     last = store.last_generation()

@@ -28,8 +28,6 @@ Written whole or not at all (a temporary file renamed onto its name), so a reade
 
 from __future__ import annotations
 
-import os
-import tempfile
 from pathlib import Path
 from typing import Any
 
@@ -112,20 +110,15 @@ def arrays(ev, c0: float | None = None, shape: tuple[int, int] = GRID) -> dict[s
 
 
 def save_arrays(data: dict[str, np.ndarray], path: str | Path) -> Path:
-    """Write ``data`` as a compressed ``.npz`` at ``path``, atomically (temporary file in the same
-    directory, then :func:`os.replace`); the directory is created."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, name = tempfile.mkstemp(dir=path.parent, prefix=f".{path.stem}.", suffix=".partial.npz")
-    try:
-        with os.fdopen(fd, "wb") as fh:
+    """Write ``data`` as a compressed ``.npz`` at ``path``, whole or not at all
+    (:func:`optimizer.saving.write_atomic`); the directory is created."""
+    from optimizer.saving import write_atomic
+
+    def write(temporary: Path) -> None:
+        with open(temporary, "wb") as fh:       # a file object: numpy adds no ".npz" to the name
             np.savez_compressed(fh, **data)
-        os.chmod(name, 0o644)
-        os.replace(name, path)
-    except BaseException:
-        Path(name).unlink(missing_ok=True)
-        raise
-    return path
+
+    return write_atomic(path, write)
 
 
 def write_fields(ev, path: str | Path, c0: float | None = None) -> Path:
