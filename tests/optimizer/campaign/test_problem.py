@@ -93,7 +93,7 @@ def test_oscillating_policies(tmp_path):
 
 
 def test_class_is_judged_on_the_objectives_monitors(tmp_path):
-    # the issue: blades with lift and C_max steady and only the drag drifting
+    # the case: blades with lift and C_max steady and only the drag drifting
     p = make_problem(campaign(tmp_path))
     drag_drifts = monitors(fx=("not_converged", 300.0, 0.1))
     a = p.assess(solved("not_converged", monitors=drag_drifts))
