@@ -36,6 +36,7 @@ import numpy as np
 from optimizer.campaign.config import CampaignConfig
 from optimizer.campaign.fields import prune_fields, with_fields
 from optimizer.campaign.problem import Assessment, CampaignProblem, Feasibility, initial_population, make_problem
+from optimizer.campaign.record import EvaluationRecord
 from optimizer.campaign.status import EvaluationStatus
 from optimizer.campaign.store import STORE_NAME, EvaluationRow, GenerationRow, Store, now
 
@@ -332,13 +333,17 @@ class _Loop:
                                        feasibility)
 
     def _row(self, key: str, g: int, x: np.ndarray, a: Assessment, *, result=None, submitted=None) -> EvaluationRow:
-        record = (result.record if result is not None else None) or {}
+        record = result.record if result is not None and result.record is not None else None
+        if record is not None:
+            record = EvaluationRecord.of(record)
         return EvaluationRow(
             key=key, generation=g, x=[float(v) for v in x], parameters=self.problem.stored_parameters(x),
             status=a.status,
             reason=a.reason, minimised=a.minimised, constraints=a.constraints, convergence=a.convergence,
-            objectives=a.objectives, figures=record.get("figures"), monitors=record.get("monitors"),
-            cells=record.get("cells"), iterations=record.get("iterations"), seconds=record.get("seconds"),
+            objectives=a.objectives, figures=None if record is None else record.figures,
+            monitors=None if record is None else record.monitors, cells=None if record is None else record.cells,
+            iterations=None if record is None else record.iterations,
+            seconds=None if record is None else record.seconds,
             wall_seconds=None if result is None else result.seconds,
             worker=None if result is None else result.worker, submitted=submitted)
 

@@ -32,7 +32,7 @@ from typing import Any
 import numpy as np
 
 from optimizer.campaign.config import MONITOR_OF, CampaignConfig
-from optimizer.campaign.record import SOLVED
+from optimizer.campaign.record import EvaluationRecord
 from optimizer.campaign.status import EvaluationStatus
 from solver.convergence import ConvergenceClass
 
@@ -166,24 +166,26 @@ class CampaignProblem:
         constraints["evaluation"] = 1.0
         return Assessment(status, reason, convergence, None, [FAILED_VALUE] * len(self.objectives), constraints)
 
-    def assess(self, record: Mapping[str, Any], feasibility: Feasibility | None = None) -> Assessment:
-        """Status, objectives and constraints of an evaluation ``record`` (see :mod:`.record`)."""
-        if record.get("status") != SOLVED:
-            return self.failed(record.get("status", EvaluationStatus.ERROR), record.get("reason", ""), feasibility,
-                               record.get("class"))
+    def assess(self, record: EvaluationRecord | Mapping[str, Any],
+               feasibility: Feasibility | None = None) -> Assessment:
+        """Status, objectives and constraints of an evaluation ``record`` (:class:`.record.EvaluationRecord`,
+        or a mapping with its :meth:`~.record.EvaluationRecord.to_dict` keys)."""
+        record = EvaluationRecord.of(record)
+        if not record.solved:
+            return self.failed(record.status, record.reason, feasibility, record.convergence)
         figures_used = [o.figure for o in self.objectives] + [c.figure for c in self.config.constraints]
         cls, why = judge(record, figures_used)
-        values = record.get("figures") or {}
+        values = record.figures
         if cls == ConvergenceClass.NOT_CONVERGED:
             return self.failed(EvaluationStatus.NOT_CONVERGED, f"{why}; more iterations needed", feasibility, cls)
         if cls == ConvergenceClass.OSCILLATING:
             verdict = self._oscillating(record, figures_used)
             if verdict:
                 return self.failed(EvaluationStatus.OSCILLATING, f"{why}; {verdict}", feasibility, cls)
-            values = {**values, **(record.get("window_figures") or {})}
+            values = {**values, **(record.window_figures or {})}
         missing = [f for f in figures_used if values.get(f) is None]
         if missing:
-            reasons = record.get("missing") or {}
+            reasons = record.missing
             text = ", ".join(f"{f} ({reasons.get(f, 'not reported')})" for f in missing)
             return self.failed(EvaluationStatus.SOLVE_FAILED, f"no value for {text}", feasibility, cls)
         return self._accepted(values, cls, why, feasibility)
@@ -208,14 +210,14 @@ class CampaignProblem:
         constraints["evaluation"] = 0.0
         return Assessment(EvaluationStatus.OK, why, cls, objectives, minimised, constraints)
 
-    def _oscillating(self, record: Mapping[str, Any], figures: list[str]) -> str:
+    def _oscillating(self, record: EvaluationRecord, figures: list[str]) -> str:
         """Why an oscillating result is rejected under the policy ('' when accepted)."""
         policy = self.config.convergence
         if policy.oscillating == "fail":
             return "oscillating results are rejected (convergence.oscillating = fail)"
         if policy.oscillating == "accept_mean":
             return ""
-        monitors = record.get("monitors") or {}
+        monitors = record.monitors
         worst, name = 0.0, ""
         for m in {MONITOR_OF[f] for f in figures if f in MONITOR_OF}:
             info = monitors.get(m) or {}
@@ -231,17 +233,18 @@ class CampaignProblem:
         return ""
 
 
-def judge(record: Mapping[str, Any], figures: list[str]) -> tuple[str, str]:
+def judge(record: EvaluationRecord | Mapping[str, Any], figures: list[str]) -> tuple[ConvergenceClass, str]:
     """The convergence class of a solve judged on the monitors of ``figures`` and the reason.
 
     The solver's ``converged`` stands. Otherwise the class is the worst of the chosen figures' monitors
     (a blade whose drag drifts while lift and C_max have settled is ``stationary`` for an |F_Y| / C_max
     campaign); a figure without a monitor (wall C_p, y+) falls back to the solve's overall class.
     """
-    overall = record.get("class") or "not_converged"
-    if overall == "converged":
-        return "converged", "converged"
-    monitor_status = {m: (info or {}).get("status") for m, info in (record.get("monitors") or {}).items()}
+    record = EvaluationRecord.of(record)
+    overall = record.convergence or ConvergenceClass.NOT_CONVERGED
+    if overall == ConvergenceClass.CONVERGED:
+        return overall, "converged"
+    monitor_status = {m: (info or {}).get("status") for m, info in record.monitors.items()}
     if any(f not in MONITOR_OF for f in figures):
         return overall, f"class of the whole solve: {overall}"
     classes = {MONITOR_OF[f]: monitor_status.get(MONITOR_OF[f]) for f in figures}

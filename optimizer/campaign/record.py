@@ -1,4 +1,4 @@
-"""What a worker runs: one task payload in, one JSON-able evaluation record out (never raising for a bad
+"""What a worker runs: one task payload in, one :class:`EvaluationRecord` out (never raising for a bad
 blade).
 
 :func:`evaluate_payload` is the ``fn`` the campaign hands to the runner
@@ -12,7 +12,8 @@ plus ``fields`` (optional, blades only: the absolute path of the design's fields
 the worker shares with the driver) and the runner's ``deadline_s`` (Unix time after which the runner has
 given up: the solve stops at its next iteration and the record says ``timeout``).
 
-The record (the driver stores it and judges it with :meth:`CampaignProblem.assess`)::
+The record, :class:`EvaluationRecord` (the driver stores it and judges it with
+:meth:`CampaignProblem.assess`; :meth:`EvaluationRecord.to_dict` gives these keys)::
 
     status        "solved" (figures exist) or why not: "infeasible", "geometry_failed", "mesh_failed",
                   "solve_failed", "diverged", "timeout", "error"
@@ -33,9 +34,11 @@ BLAS/OpenMP threads are pinned to one in the worker: evaluations are parallel ac
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
 from typing import Any
 
 from optimizer.campaign.status import STAGE_FAILED, EvaluationStatus
@@ -47,18 +50,82 @@ SOLVED = "solved"
 _pinned = False
 
 
+@dataclass(frozen=True)
+class EvaluationRecord:
+    """The outcome of one task as the worker reports it (the fields are the module docstring's keys;
+    ``convergence`` is the key ``class``). Picklable, so that it crosses to the driver unchanged.
+
+    status: :data:`SOLVED` or an :class:`EvaluationStatus`. convergence: a :class:`ConvergenceClass` or None.
+    figures, window_figures: ``{figure: value or None}`` (SI units); monitors: ``{monitor: {"mean",
+    "amplitude", "drift", "period", "status"}}``; seconds: ``{stage: s}``.
+    """
+
+    status: str
+    reason: str = ""
+    convergence: ConvergenceClass | None = None
+    figures: dict[str, float | None] = field(default_factory=dict)
+    window_figures: dict[str, float | None] | None = None
+    monitors: dict[str, dict[str, Any]] = field(default_factory=dict)
+    missing: dict[str, str] = field(default_factory=dict)
+    cells: int | None = None
+    iterations: int | None = None
+    seconds: dict[str, float] = field(default_factory=dict)
+    values_from: str | None = None
+    fields: str | None = None
+
+    def __post_init__(self) -> None:
+        if self.status != SOLVED:
+            object.__setattr__(self, "status", EvaluationStatus.parse(self.status))
+        if self.convergence is not None:
+            object.__setattr__(self, "convergence", ConvergenceClass(self.convergence))
+
+    @property
+    def solved(self) -> bool:
+        """The solve ran and its figures exist (the driver's assessment decides whether they are used)."""
+        return self.status == SOLVED
+
+    def replace(self, **changes: Any) -> EvaluationRecord:
+        """A copy with ``changes`` (field names)."""
+        return dataclasses.replace(self, **changes)
+
+    def to_dict(self) -> dict[str, Any]:
+        """The record as JSON-able plain values (the module docstring's keys)."""
+        return {"status": str(self.status), "reason": self.reason,
+                "class": None if self.convergence is None else str(self.convergence),
+                "figures": dict(self.figures), "window_figures": self.window_figures,
+                "monitors": {m: {k: (str(v) if k == "status" and v is not None else v) for k, v in info.items()}
+                             for m, info in self.monitors.items()},
+                "missing": dict(self.missing), "cells": self.cells, "iterations": self.iterations,
+                "seconds": dict(self.seconds), "values_from": self.values_from, "fields": self.fields}
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any]) -> EvaluationRecord:
+        """The record of :meth:`to_dict`'s keys (missing keys take their defaults; ``status`` defaults to
+        ``error``); ValueError for an unknown status or class."""
+        return cls(status=data.get("status") or EvaluationStatus.ERROR, reason=data.get("reason") or "",
+                   convergence=data.get("class"), figures=dict(data.get("figures") or {}),
+                   window_figures=data.get("window_figures"), monitors=dict(data.get("monitors") or {}),
+                   missing=dict(data.get("missing") or {}), cells=data.get("cells"),
+                   iterations=data.get("iterations"), seconds=dict(data.get("seconds") or {}),
+                   values_from=data.get("values_from"), fields=data.get("fields"))
+
+    @classmethod
+    def of(cls, record: EvaluationRecord | Mapping[str, Any]) -> EvaluationRecord:
+        """``record`` itself, or the record of a mapping with :meth:`to_dict`'s keys."""
+        return record if isinstance(record, cls) else cls.from_dict(record)
+
+
 class _DeadlinePassed(Exception):
     """Raised from the solver's progress callback to stop a solve the runner has given up on."""
 
 
-def evaluate_payload(payload: dict) -> dict:
+def evaluate_payload(payload: dict) -> EvaluationRecord:
     """Run one task payload (see the module docstring) and return its record."""
     _pin_threads()
     kind = payload.get("kind")
     handler = HANDLERS.get(kind)
     if handler is None:
-        return {"status": EvaluationStatus.ERROR,
-                "reason": f"unknown payload kind {kind!r}; known: {', '.join(HANDLERS)}"}
+        return EvaluationRecord(EvaluationStatus.ERROR, f"unknown payload kind {kind!r}; known: {', '.join(HANDLERS)}")
     return handler(payload)
 
 
@@ -96,12 +163,12 @@ def _pipeline() -> Callable[..., Any]:
     return evaluate
 
 
-def evaluate_blade_payload(payload: dict) -> dict:
+def evaluate_blade_payload(payload: dict) -> EvaluationRecord:
     t0, cpu0 = time.perf_counter(), time.process_time()
     try:
         config = blade_config(payload)
     except Exception as exc:     # a payload the driver built from a validated config: a bug, say so
-        return {"status": EvaluationStatus.ERROR, "reason": f"bad payload: {type(exc).__name__}: {exc}"}
+        return EvaluationRecord(EvaluationStatus.ERROR, f"bad payload: {type(exc).__name__}: {exc}")
     deadline = payload.get("deadline_s")
     passed = []
 
@@ -113,28 +180,28 @@ def evaluate_blade_payload(payload: dict) -> dict:
     ev = _pipeline()(config, log=watch if deadline is not None else None, every=1 if deadline is not None else 0)
     record = record_of(ev, config)
     if passed:
-        record.update(status=EvaluationStatus.TIMEOUT, reason=f"stopped at the runner's deadline; {record['reason']}")
-    elif record["status"] == SOLVED and payload.get("fields"):
-        keep_fields(ev, config, payload["fields"], record)
-    record["seconds"]["total"] = time.perf_counter() - t0
-    record["seconds"]["cpu"] = time.process_time() - cpu0     # the worker's CPU time: what load does not inflate
-    return record
+        record = record.replace(status=EvaluationStatus.TIMEOUT,
+                                reason=f"stopped at the runner's deadline; {record.reason}")
+    elif record.solved and payload.get("fields"):
+        record = keep_fields(ev, config, payload["fields"], record)
+    # the worker's CPU time: what load does not inflate
+    return record.replace(seconds={**record.seconds, "total": time.perf_counter() - t0,
+                                   "cpu": time.process_time() - cpu0})
 
 
-def keep_fields(ev, config, path: str, record: dict) -> None:
+def keep_fields(ev, config, path: str, record: EvaluationRecord) -> EvaluationRecord:
     """Write the fields file of a solved evaluation at ``path`` (:func:`optimizer.campaign.fields.write_fields`)
-    and say so in ``record["fields"]`` (the path, or None). A failure (a directory the worker cannot reach,
-    a full disk) does not fail the evaluation: its reason says that the fields were not kept."""
+    and return ``record`` saying so in ``fields`` (the path, or None). A failure (a directory the worker
+    cannot reach, a full disk) does not fail the evaluation: its reason says that the fields were not kept."""
     from optimizer.campaign.fields import write_fields
 
     try:
-        record["fields"] = str(write_fields(ev, path, c0=config.flow.speed))
+        return record.replace(fields=str(write_fields(ev, path, c0=config.flow.speed)))
     except Exception as exc:     # the figures are what the campaign needs; the fields are for the report
-        record["fields"] = None
-        record["reason"] = f"{record['reason']}; fields not kept ({type(exc).__name__}: {exc})"
+        return record.replace(fields=None, reason=f"{record.reason}; fields not kept ({type(exc).__name__}: {exc})")
 
 
-def record_of(ev, config) -> dict:
+def record_of(ev, config) -> EvaluationRecord:
     """The record of a pipeline :class:`~optimizer.evaluation.Evaluation` (see the module docstring)."""
     from optimizer.campaign.config import FIGURES
 
@@ -153,12 +220,11 @@ def record_of(ev, config) -> dict:
                            "drift": _num(cls.drift.get(m)), "period": _num(cls.period.get(m)),
                            "status": cls.monitor_status.get(m)}
     figures = {f: _num(getattr(ev, f, None)) for f in FIGURES}
-    return {
-        "status": status, "reason": ev.message, "class": ev.status if solved else (cls.status if cls else None),
-        "figures": figures, "window_figures": window_figures(monitors, ev, config) if solved else None,
-        "monitors": monitors, "missing": dict(ev.missing or {}), "cells": ev.cells, "iterations": ev.iterations,
-        "seconds": {k: float(v) for k, v in (ev.seconds or {}).items()}, "values_from": ev.values_from,
-    }
+    return EvaluationRecord(
+        status, ev.message, convergence=ev.status if solved else (cls.status if cls else None), figures=figures,
+        window_figures=window_figures(monitors, ev, config) if solved else None, monitors=monitors,
+        missing=dict(ev.missing or {}), cells=ev.cells, iterations=ev.iterations,
+        seconds={k: float(v) for k, v in (ev.seconds or {}).items()}, values_from=ev.values_from)
 
 
 def window_figures(monitors: dict, ev, config) -> dict:
@@ -201,15 +267,15 @@ def zdt1(x: list[float]) -> tuple[float, float]:
     return f1, g * (1.0 - math.sqrt(f1 / g))
 
 
-def evaluate_zdt1_payload(payload: dict) -> dict:
+def evaluate_zdt1_payload(payload: dict) -> EvaluationRecord:
     t0 = time.perf_counter()
     if payload.get("delay"):
         time.sleep(float(payload["delay"]))
     f1, f2 = zdt1(payload["x"])
-    return {"status": SOLVED, "reason": "analytic", "class": ConvergenceClass.CONVERGED,
-            "figures": {"f1": f1, "f2": f2}, "window_figures": None, "monitors": {}, "missing": {}, "cells": None,
-            "iterations": None, "seconds": {"total": time.perf_counter() - t0}}
+    return EvaluationRecord(SOLVED, "analytic", convergence=ConvergenceClass.CONVERGED,
+                            figures={"f1": f1, "f2": f2}, seconds={"total": time.perf_counter() - t0})
 
 
 #: Payload kinds and their handlers (STYLE.md §7: a registry keyed by a string).
-HANDLERS: dict[str, Callable[[dict], dict]] = {"blade": evaluate_blade_payload, "zdt1": evaluate_zdt1_payload}
+HANDLERS: dict[str, Callable[[dict], EvaluationRecord]] = {"blade": evaluate_blade_payload,
+                                                          "zdt1": evaluate_zdt1_payload}

@@ -3,6 +3,9 @@ is replaced by a stand-in that fails on purpose (a blade that cannot be meshed, 
 
 from __future__ import annotations
 
+import json
+import pickle
+
 import numpy as np
 import pytest
 
@@ -237,16 +240,20 @@ def test_deadline_stops_the_solve_as_timeout(monkeypatch):
     p = BladeProblem(CampaignConfig.model_validate({"blade": {"mode": "design", "continuity": "G1"}}))
     X, _ = initial_population(p, 1, 1, 100)
     out = record.evaluate_payload({**p.payload(X[0]), "deadline_s": 0.0})
-    assert out["status"] == "timeout" and "deadline" in out["reason"]
+    assert out.status == "timeout" and "deadline" in out.reason
     ok = record.evaluate_payload({**p.payload(X[0]), "deadline_s": 1e12})
-    assert ok["status"] == "solved"
+    assert ok.solved and ok.status == "solved"
 
 
 def test_record_of_a_real_evaluation_shape():
     ev = fake_pipeline(type("C", (), {"blade": type("B", (), {"parameters": {"alpha": 10.0}})()})())
     cfg = load_campaign(None)
     rec = record.record_of(ev, cfg)
-    assert rec["status"] == "solved" and rec["class"] == "converged"
-    assert rec["figures"]["fy"] == -10000.0 and rec["window_figures"]["fy"] == -10000.0
-    assert rec["window_figures"]["c_l"] == pytest.approx(-10000.0 / (0.5 * 998.2 * 100 * 0.1))
-    assert np.isfinite(rec["monitors"]["c_max"]["mean"])
+    assert rec.status == "solved" and rec.convergence == "converged"
+    assert rec.figures["fy"] == -10000.0 and rec.window_figures["fy"] == -10000.0
+    assert rec.window_figures["c_l"] == pytest.approx(-10000.0 / (0.5 * 998.2 * 100 * 0.1))
+    assert np.isfinite(rec.monitors["c_max"]["mean"])
+    # the record crosses to the driver by pickle and reads back from its dict unchanged
+    assert pickle.loads(pickle.dumps(rec)) == rec
+    d = rec.to_dict()
+    assert record.EvaluationRecord.from_dict(json.loads(json.dumps(d))) == rec and d["class"] == "converged"

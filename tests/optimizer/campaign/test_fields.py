@@ -20,7 +20,7 @@ from optimizer.campaign.fields import (
     with_fields,
     write_fields,
 )
-from optimizer.campaign.record import keep_fields
+from optimizer.campaign.record import SOLVED, EvaluationRecord, keep_fields
 from optimizer.campaign.store import STORE_NAME, EvaluationRow, Store, non_dominated
 from optimizer.report.synthetic import TABLE5_G1_TOOLPATH, synthetic_evaluation
 
@@ -56,16 +56,17 @@ def test_written_file_round_trips(tmp_path, blade):
 def test_a_write_failure_is_a_note_not_a_failed_evaluation(tmp_path, blade):
     blocker = tmp_path / "not_a_directory"
     blocker.write_text("")
-    record = {"status": "solved", "reason": "converged"}
+    solved = EvaluationRecord(SOLVED, "converged")
     config = SimpleNamespace(flow=SimpleNamespace(speed=10.0))
-    keep_fields(synthetic_evaluation(blade), config, str(blocker / "k.npz"), record)
-    assert record["status"] == "solved" and record["fields"] is None
-    assert record["reason"].startswith("converged; fields not kept (")
-    keep_fields(SimpleNamespace(wall=None, artifacts=SimpleNamespace(flow=None)), config,
-                str(tmp_path / "k.npz"), record := {"status": "solved", "reason": "ok"})
-    assert record["fields"] is None and "no wall distribution" in record["reason"]
-    keep_fields(synthetic_evaluation(blade), config, str(tmp_path / "f" / "k.npz"), record := {"reason": "ok"})
-    assert record["fields"] == str(tmp_path / "f" / "k.npz") and record["reason"] == "ok"
+    record = keep_fields(synthetic_evaluation(blade), config, str(blocker / "k.npz"), solved)
+    assert record.solved and record.fields is None
+    assert record.reason.startswith("converged; fields not kept (")
+    record = keep_fields(SimpleNamespace(wall=None, artifacts=SimpleNamespace(flow=None)), config,
+                         str(tmp_path / "k.npz"), solved.replace(reason="ok"))
+    assert record.fields is None and "no wall distribution" in record.reason
+    record = keep_fields(synthetic_evaluation(blade), config, str(tmp_path / "f" / "k.npz"),
+                         solved.replace(reason="ok"))
+    assert record.fields == str(tmp_path / "f" / "k.npz") and record.reason == "ok"
 
 
 def test_payload_names_the_file_for_blades_only(tmp_path):
