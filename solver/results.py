@@ -12,8 +12,6 @@ from .convergence import ConvergenceClass
 from .fvmesh import CELL_TYPES, FVMesh
 from .gradient import ls_gradient
 
-#: Possible values of :attr:`FlowResults.status`: the members of :class:`ConvergenceClass`.
-STATUSES = tuple(ConvergenceClass)
 
 
 @dataclass(frozen=True)

@@ -12,8 +12,9 @@ task **as each one completes**, never in submission order and never aborting the
 
 Statuses of a :class:`TaskResult`:
 
-* ``done``: ``fn`` returned; :attr:`TaskResult.record` is its dict (the evaluation's own status, e.g. a
-  mesh failure or a diverged solve, lives inside the record).
+* ``done``: ``fn`` returned; :attr:`TaskResult.record` is what it returned (for a campaign an
+  :class:`~optimizer.campaign.record.EvaluationRecord`: the evaluation's own status, e.g. a mesh failure or a
+  diverged solve, lives inside the record).
 * ``timeout``: the evaluation ran longer than ``execution.timeout`` seconds (counted from the moment it
   started on a worker, not from submission: queued tasks do not time out). Its future is cancelled.
 * ``worker_lost``: the worker running it died (process killed, node lost, job cancelled) more than
@@ -62,10 +63,11 @@ from abc import ABC, abstractmethod
 from collections import deque
 from collections.abc import Callable, Iterable, Iterator, Mapping
 from dataclasses import dataclass
-from typing import ClassVar, Literal
+from typing import Any, ClassVar, Literal
 
 from pydantic import Field, field_validator, model_validator
 
+from optimizer.campaign.status import TaskStatus
 from optimizer.config import Section
 
 log = logging.getLogger(__name__)
@@ -102,18 +104,17 @@ class Task:
 class TaskResult:
     """The outcome of one :class:`Task`.
 
-    record: what ``fn`` returned, or None if it did not return. status: ``done``, ``timeout``,
-    ``worker_lost`` or ``error``. reason: why, for all but ``done`` (``""`` then). worker: address of the
-    worker that ran the last attempt (``""`` inline or when unknown). seconds: wall time seen by the runner
-    from the start of the last attempt on a worker (its submission if it never started) to its end, s.
-    attempts: how many times it was submitted, not counting resubmissions after a worker restart that the
-    runner itself caused (a task queued behind a timed-out one).
+    record: what ``fn`` returned, or None if it did not return. status: a :class:`TaskStatus`. reason: why, for all
+    but ``done`` (``""`` then). worker: address of the worker that ran the last attempt (``""`` inline or when
+    unknown). seconds: wall time seen by the runner from the start of the last attempt on a worker (its submission
+    if it never started) to its end, s. attempts: how many times it was submitted, not counting resubmissions after
+    a worker restart that the runner itself caused (a task queued behind a timed-out one).
     """
 
     key: str
     generation: int
-    record: dict | None
-    status: str
+    record: Any
+    status: TaskStatus
     reason: str
     worker: str
     seconds: float
@@ -121,7 +122,7 @@ class TaskResult:
 
 
 #: Statuses of :class:`TaskResult`.
-STATUSES = ("done", "timeout", "worker_lost", "error")
+STATUSES = tuple(TaskStatus)
 
 
 def _with_deadline(payload: Mapping, timeout: float) -> dict:
@@ -196,10 +197,10 @@ class InlineRunner(Runner):
             try:
                 record = fn(_with_deadline(task.payload, self.config.timeout))
             except Exception as exc:  # a raise from fn is a bug to report, not a reason to stop the batch
-                yield TaskResult(task.key, task.generation, None, "error", _describe(exc), "",
+                yield TaskResult(task.key, task.generation, None, TaskStatus.ERROR, _describe(exc), "",
                                  self.clock() - t0)
                 continue
-            yield TaskResult(task.key, task.generation, record, "done", "", "", self.clock() - t0)
+            yield TaskResult(task.key, task.generation, record, TaskStatus.DONE, "", "", self.clock() - t0)
 
 
 def _execute(fn_pickle: bytes, payload: dict, key: str, timeout: float) -> dict:
@@ -391,13 +392,13 @@ class DaskRunner(Runner):
                 log.warning("task %s lost with worker %s (%s); resubmitting", task.key, lost_worker, reason)
                 waiting.appendleft((task, losses))
                 return None
-            return TaskResult(task.key, task.generation, None, "worker_lost",
+            return TaskResult(task.key, task.generation, None, TaskStatus.WORKER_LOST,
                               f"lost with its worker {losses} times; last: {reason}", lost_worker or worker,
                               seconds, attempt.losses + 1)
         if future.status == "error":
-            return TaskResult(task.key, task.generation, None, "error", _describe(future.exception()), worker,
+            return TaskResult(task.key, task.generation, None, TaskStatus.ERROR, _describe(future.exception()), worker,
                               seconds, attempt.losses + 1)
-        status, reason = ("error", value["error"]) if value["error"] else ("done", "")
+        status, reason = (TaskStatus.ERROR, value["error"]) if value["error"] else (TaskStatus.DONE, "")
         return TaskResult(task.key, task.generation, value["record"], status, reason, value["worker"], seconds,
                           attempt.losses + 1)
 
@@ -432,7 +433,7 @@ class DaskRunner(Runner):
             self._started.pop(attempt.key, None)
             self._stuck[attempt.key] = (worker, self.clock() + self.config.timeout_grace)
             task = attempt.task
-            yield TaskResult(task.key, task.generation, None, "timeout",
+            yield TaskResult(task.key, task.generation, None, TaskStatus.TIMEOUT,
                              f"ran longer than the timeout of {self.config.timeout:g} s", worker, seconds,
                              attempt.losses + 1)
 

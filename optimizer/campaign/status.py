@@ -1,5 +1,6 @@
 """The status of one evaluation in a campaign: :class:`EvaluationStatus`, the one vocabulary that the
-problem, the driver, the store, the progress lines and the report use.
+problem, the driver, the store, the progress lines and the report use; and :class:`TaskStatus`, whether the
+runner got an answer for a task at all.
 
 ``ok`` means the solve ran and its values were accepted under the convergence policy; every other status
 says why a design has no usable values (it then enters the optimiser as a violated constraint). The
@@ -51,3 +52,14 @@ class EvaluationStatus(enum.StrEnum):
 #: The pipeline stage that failed -> the status of its evaluation (``post`` failing is a bug).
 STAGE_FAILED = {"geometry": EvaluationStatus.GEOMETRY_FAILED, "mesh": EvaluationStatus.MESH_FAILED,
                 "solve": EvaluationStatus.SOLVE_FAILED, "post": EvaluationStatus.ERROR}
+
+
+class TaskStatus(enum.StrEnum):
+    """Whether a runner's task returned (:class:`optimizer.campaign.runner.TaskResult`): ``done`` (the evaluation's
+    own status is inside its record) or why not. The three failures are evaluation statuses of the same names, which
+    the store records for the design."""
+
+    DONE = "done"
+    TIMEOUT = EvaluationStatus.TIMEOUT.value
+    WORKER_LOST = EvaluationStatus.WORKER_LOST.value
+    ERROR = EvaluationStatus.ERROR.value
