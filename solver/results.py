@@ -13,7 +13,6 @@ from .fvmesh import CELL_TYPES, FVMesh
 from .gradient import ls_gradient
 
 
-
 @dataclass(frozen=True)
 class Forces:
     """Force per unit span (N/m) exerted by the fluid on a boundary group, split in parts."""

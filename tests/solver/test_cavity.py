@@ -10,9 +10,8 @@ import importlib.util
 import numpy as np
 import pytest
 
-from solver import Fluid, Problem, SimpleSettings, solve_steady
+from solver import ConvergenceClass, Fluid, Problem, SimpleSettings, solve_steady
 from solver.boundary import resolve_boundaries
-from solver import ConvergenceClass
 from solver.validation.cavity import cavity_settings, run_cavity, table
 from solver.validation.meshes import square_mesh
 
