@@ -67,7 +67,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         "node that sees the file) and print its state, generations, evaluations by status and convergence "
         "class, best objectives and hypervolume.",
     )
-    status.add_argument("directory", type=Path, metavar="RUN")
+    status.add_argument("directory", type=Path, metavar="RUN", help="run directory (holds campaign.sqlite)")
     status.add_argument("--json", action="store_true", help="print the summary as JSON")
     status.set_defaults(run=run_status)
 
