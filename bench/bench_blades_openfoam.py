@@ -128,10 +128,10 @@ def variant_name(items: list[str]) -> str:
 def classify_run(monitors: dict, window: int, tol: float):
     """Class and values compared (last iterate, window means where oscillating) of a fixed-length run's
     monitor histories (``fx:blade``, ``fy:blade``, ``c_max``), as millfoil's classification at the cap."""
-    from solver.convergence import classify
+    from solver import SimpleSettings
+    from solver.monitors import classify_at_cap
 
-    cls = classify(monitors, window=window, tol=tol)
-    status = "converged" if cls.status == "stationary" else cls.status
+    status, _message, cls = classify_at_cap(monitors, {}, SimpleSettings(classify_window=window, classify_tol=tol))
     values = {k: float(v[-1]) for k, v in monitors.items()}
     if status == "oscillating":
         values = {k: cls.mean[k] for k in monitors}

@@ -154,18 +154,15 @@ def parse_shard(text: str) -> tuple[int, int]:
     return k, n
 
 
-def overrides(items: list[str]) -> dict:
-    """``{key: value}`` of ``KEY=VALUE`` items, each value read as JSON where it parses (else text)."""
-    out = {}
-    for item in items:
-        key, sep, value = item.partition("=")
-        if not sep:
-            raise SystemExit(f"--set needs KEY=VALUE, got {item!r}")
-        try:
-            out[key] = json.loads(value)
-        except json.JSONDecodeError:
-            out[key] = value
-    return out
+def overrides(items: list[str], section: str = "solver") -> dict:
+    """``{key: value}`` of ``KEY=VALUE`` items of one configuration section, read by the configuration's own
+    ``--set`` parser (:func:`optimizer.config.apply_overrides`: YAML values, its limits and messages)."""
+    from optimizer.config import ConfigError, apply_overrides
+
+    try:
+        return apply_overrides({}, [f"{section}.{item}" for item in items]).get(section, {})
+    except ConfigError as exc:
+        raise SystemExit(str(exc)) from None
 
 
 def check_overrides(solver: dict, mesh: dict, level: str) -> None:
@@ -198,7 +195,7 @@ def main() -> None:
     parser.add_argument("--save-monitors", type=Path, metavar="DIR",
                         help="write each blade's monitor and residual histories to DIR/blade_<index>.npz")
     args = parser.parse_args()
-    solver, mesh = overrides(args.set), overrides(args.mesh_set)
+    solver, mesh = overrides(args.set), overrides(args.mesh_set, "mesh")
     check_overrides(solver, mesh, args.level)
     if args.report:
         report(read_records(args.report))
