@@ -67,7 +67,8 @@ sys.path.insert(0, str(ROOT / "bench"))
 from bench_openfoam import BLADE_PATCH_TYPES, run_openfoam, write_case  # noqa: E402
 from bench_paper_blades import BLADES as PAPER_BLADES  # noqa: E402
 from bench_robustness import draw_blades, overrides  # noqa: E402
-from openfoam_case import DEPTH, ensure_openfoam, latest_time, read_dat, read_field, write_polymesh  # noqa: E402
+
+from solver.validation.openfoam import DEPTH, ensure_openfoam, latest_time, read_dat, read_field, write_polymesh  # noqa: E402
 
 #: The blades' same-mesh criteria (docs/explanation/validation.md): |C_L ratio - 1| and |C_max ratio - 1|.
 LIFT_TOL, CMAX_TOL = 0.015, 0.01

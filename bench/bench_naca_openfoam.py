@@ -2,7 +2,7 @@
 
 For each ``--levels`` level of the validation C-mesh (:mod:`solver.validation.meshes.naca_mesh`) and each
 angle of attack, the mesh (with the far-field in/out split of that angle) is written as an OpenFOAM
-``polyMesh`` (:mod:`openfoam_case`; the very same cells) and solved by both codes with the same
+``polyMesh`` (:mod:`solver.validation.openfoam`; the very same cells) and solved by both codes with the same
 conditions (docs/explanation/validation.md, "Matching the conditions"):
 
 * far field: velocity inlet U∞ = (cos α, sin α) on ``farfield_in`` **without** the point-vortex
@@ -54,7 +54,10 @@ ROOT = Path(__file__).parents[1]
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "bench"))
 
-from openfoam_case import (  # noqa: E402
+from solver.turbulence import SSTConstants  # noqa: E402
+from solver.validation.meshes.naca_mesh import naca0012_cmesh  # noqa: E402
+from solver.validation.naca0012 import REYNOLDS, freestream, load_clcd, tmr_freestream  # noqa: E402
+from solver.validation.openfoam import (  # noqa: E402
     DEPTH,
     control_head,
     ensure_openfoam,
@@ -68,10 +71,6 @@ from openfoam_case import (  # noqa: E402
     write_file,
     write_polymesh,
 )
-
-from solver.turbulence import SSTConstants  # noqa: E402
-from solver.validation.meshes.naca_mesh import naca0012_cmesh  # noqa: E402
-from solver.validation.naca0012 import REYNOLDS, freestream, load_clcd, tmr_freestream  # noqa: E402
 
 #: Default angles of attack, deg: steps of 2 up to 12, then 1 through C_L,max (SST: about 16-18 deg).
 ALPHAS = (0, 2, 4, 6, 8, 10, 12, 13, 14, 15, 16, 17, 18, 19, 20)

@@ -44,7 +44,8 @@ sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "bench"))
 
 from bench_performance import cases, iterations_within  # noqa: E402
-from openfoam_case import DEPTH, ENV, HEADER, control_head, ensure_openfoam, write_polymesh  # noqa: E402
+
+from solver.validation.openfoam import DEPTH, ENV, HEADER, control_head, ensure_openfoam, write_polymesh  # noqa: E402
 
 #: Patch types of the blade channel's boundary groups.
 BLADE_PATCH_TYPES = {"inlet": "patch", "outlet": "patch", "top": "symmetry", "bottom": "symmetry", "blade": "wall"}

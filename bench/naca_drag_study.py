@@ -30,10 +30,10 @@ sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "bench"))
 
 from bench_naca_openfoam import lift, load_records, wall_force_parts  # noqa: E402
-from openfoam_case import latest_time, read_field  # noqa: E402
 
 from solver.validation.meshes.naca_mesh import CMesh, naca0012_cmesh  # noqa: E402
 from solver.validation.naca0012 import REYNOLDS  # noqa: E402
+from solver.validation.openfoam import latest_time, read_field  # noqa: E402
 
 LEVELS = ("coarse", "medium", "fine")
 #: ν_t/ν below which a cell counts as outside the boundary layer (the TMR free stream has 0.009).

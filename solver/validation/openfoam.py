@@ -1,7 +1,7 @@
 """OpenFOAM case files from millfoil's finite-volume mesh, a simpleFoam runner and readers of its output.
 
-Shared by the side-by-side benchmarks (``bench_openfoam.py``: blades; ``bench_naca_openfoam.py``: NACA 0012):
-both codes solve on the very same cells because the ``polyMesh`` is written directly from the solver's
+The peer of every side-by-side comparison (``bench/bench_openfoam.py``: blades; ``bench/bench_naca_openfoam.py``:
+NACA 0012). Both codes solve on the very same cells because the ``polyMesh`` is written directly from the solver's
 :class:`solver.fvmesh.FVMesh` (the 2D cells extruded by :data:`DEPTH` along z, front and back ``empty``).
 OpenFOAM is Debian's ``openfoam`` package (v1912); its environment is sourced from :data:`BASHRC`.
 """
