@@ -19,27 +19,26 @@ docs/explanation/validation.md (the drag row and its open point):
 from __future__ import annotations
 
 import argparse
-import sys
 from pathlib import Path
 
 import numpy as np
-from scipy.optimize import brentq
+
+from solver.validation.meshes.naca_mesh import naca0012_cmesh
+from solver.validation.naca0012 import REYNOLDS
+from solver.validation.naca_openfoam import (
+    INVISCID_NUT,
+    NEAR_FIELD,
+    lift,
+    load_records,
+    loss_flux,
+    richardson,
+    total_pressure_deficit,
+    wall_force_parts,
+)
+from solver.validation.openfoam import latest_time, read_field
 
 ROOT = Path(__file__).parents[1]
-sys.path.insert(0, str(ROOT))
-sys.path.insert(0, str(ROOT / "bench"))
-
-from bench_naca_openfoam import lift, load_records, wall_force_parts  # noqa: E402
-
-from solver.validation.meshes.naca_mesh import CMesh, naca0012_cmesh  # noqa: E402
-from solver.validation.naca0012 import REYNOLDS  # noqa: E402
-from solver.validation.openfoam import latest_time, read_field  # noqa: E402
-
 LEVELS = ("coarse", "medium", "fine")
-#: ν_t/ν below which a cell counts as outside the boundary layer (the TMR free stream has 0.009).
-INVISCID_NUT = 1.0
-#: Wall distance [c] within which the loss flux is summed (beyond it the far-field's own error dominates).
-NEAR_FIELD = 0.2
 #: Stations (x/c of the wall-normal grid line) of the loss-flux table.
 STATIONS = (0.01, 0.02, 0.05, 0.1, 0.3, 0.6, 0.9)
 CODES = ("millfoil", "openfoam")
@@ -57,53 +56,6 @@ def load_fields(work: Path, level: str, alpha: float, n_cells: int) -> dict[str,
     with np.load(case / "millfoil_state.npz") as z:
         mf = {"u": z["u"], "p": z["p"], "k": z["k"], "nut": z["nu_t"]}
     return {"millfoil": mf, "openfoam": of}
-
-
-def total_pressure_deficit(f: dict[str, np.ndarray]) -> np.ndarray:
-    """(p0∞ − p0)/q∞ per cell (U∞ = 1, p∞ = 0: q∞ = p0∞ = 1/2); p is the modified pressure p + 2/3 k."""
-    p0 = f["p"] - 2.0 / 3.0 * f["k"] + 0.5 * np.einsum("ij,ij->i", f["u"], f["u"])
-    return (0.5 - p0) / 0.5
-
-
-def loss_flux(cm: CMesh, f: dict[str, np.ndarray], x_station: float, side: str) -> float:
-    """Drag coefficient of the total-pressure flux through the wall-normal node line nearest ``x_station`` on
-    ``side`` (``"upper"``/``"lower"``), over the cells outside the boundary layer within :data:`NEAR_FIELD` of the
-    wall: the mean of the two cell columns either side of the line, signed positive downstream."""
-    n_j = cm.xy.shape[1] - 1
-    nw, ns = cm.spec.n_wake, cm.spec.n_side
-    lines = np.arange(nw + 1, nw + ns) if side == "lower" else np.arange(nw + ns + 1, nw + 2 * ns)
-    i = lines[np.argmin(np.abs(cm.xy[lines, 0, 0] - x_station))]
-    seg = np.diff(cm.xy[i], axis=0)                                    # node j -> j + 1 along the line
-    normal = np.column_stack([seg[:, 1], -seg[:, 0]])                  # towards increasing i, length-weighted
-    cells = np.arange(i - 1, i + 1)[:, None] * n_j + np.arange(n_j)    # the two columns (i, j) -> i n_j + j
-    column = {name: f[name][cells] for name in ("u", "p", "k", "nut")}
-    deficit = total_pressure_deficit({name: v.reshape(-1, *v.shape[2:]) for name, v in column.items()})
-    un = np.einsum("cjk,jk->cj", column["u"], normal)
-    wall_xy = 0.5 * (cm.xy[i - 1:i + 1, 0] + cm.xy[i:i + 2, 0])        # wall-face centre of each column
-    dist = np.linalg.norm(cm.mesh.centroid[cells] - wall_xy[:, None, :], axis=2)
-    keep = (column["nut"] * REYNOLDS < INVISCID_NUT) & (dist < NEAR_FIELD)   # ν_t/ν (U∞ = c = 1)
-    # Σ (p0∞ − p0) u·n Δl / (q∞ U∞ c) with U∞ = c = 1: q∞ cancels against the deficit's; mean of the columns
-    flux = 0.5 * np.sum((deficit.reshape(2, n_j) * un)[keep])
-    downstream = np.sign(np.sum(un[1]))
-    return float(downstream * flux)
-
-
-def richardson(values, cells) -> tuple[float | None, float | None]:
-    """Observed order and extrapolated value of three levels ``values`` on meshes of ``cells`` cells (h ∝
-    cells^-1/2, unequal ratios): solves (f1 − f2)(r32^p − 1) = (f2 − f3) r32^p (r21^p − 1) for p in (0.05, 6).
-    (None, None) when the three are not monotone in a way that order can explain."""
-    f1, f2, f3 = values
-    h = 1.0 / np.sqrt(np.asarray(cells, float))
-    r21, r32 = h[0] / h[1], h[1] / h[2]
-
-    def residual(p):
-        return (f1 - f2) * (r32 ** p - 1) - (f2 - f3) * r32 ** p * (r21 ** p - 1)
-
-    try:
-        p = brentq(residual, 0.05, 6.0)
-    except ValueError:
-        return None, None
-    return p, f3 + (f3 - f2) / (r32 ** p - 1)
 
 
 def with_force_parts(record: dict, mesh, alpha: float) -> dict:

@@ -1,5 +1,6 @@
-"""The NACA 0012 side-by-side scripts (bench/bench_naca_openfoam.py, bench/naca_drag_study.py): the OpenFOAM case
-files they write, their options, their records and their report. No OpenFOAM needed."""
+"""The NACA 0012 side-by-side harness (solver.validation.naca_openfoam, run by bench/bench_naca_openfoam.py and
+bench/naca_drag_study.py): the OpenFOAM case files it writes, its option types, its records and its report. No
+OpenFOAM needed."""
 
 from __future__ import annotations
 
@@ -20,7 +21,7 @@ def test_naca_fv_schemes_gradient_options():
     """bench_naca_openfoam's fvSchemes: ``--u-gradient`` sets only the linear-upwind U gradient, ``--gradient``
     the default of every other gradient, ``--interpolation`` the face interpolation of the flux; the defaults are
     the results table's (Gauss linear, linear)."""
-    from bench_naca_openfoam import fv_schemes
+    from solver.validation.naca_openfoam import fv_schemes
 
     plain = fv_schemes()
     assert "default Gauss linear;" in plain and "gradU Gauss linear;" in plain
@@ -36,7 +37,7 @@ def test_naca_fv_schemes_gradient_options():
 def test_naca_fv_solution_non_orthogonal_correctors():
     """``--of-non-orthogonal N`` sets simpleFoam's pressure non-orthogonal correctors (the fine mesh needs 2);
     the default is the results table's 0, and SIMPLEC stays on."""
-    from bench_naca_openfoam import fv_solution
+    from solver.validation.naca_openfoam import fv_solution
 
     assert "nNonOrthogonalCorrectors 0;" in fv_solution(0.9, 0.8)
     fine = fv_solution(0.9, 0.8, non_orthogonal=2)
@@ -46,7 +47,7 @@ def test_naca_fv_solution_non_orthogonal_correctors():
 def test_wall_force_parts_add_up_to_the_wall_force():
     """The pressure and viscous parts of C_D and C_L from a wall record: a uniform C_p on a closed wall gives
     no force; a uniform c_f gives a viscous drag of about 2 c_f (both surfaces, chord 1) at alpha = 0."""
-    from bench_naca_openfoam import wall_force_parts
+    from solver.validation.naca_openfoam import wall_force_parts
 
     mesh = _mesh()
     nw = len(mesh.boundary["wall"])
@@ -57,9 +58,9 @@ def test_wall_force_parts_add_up_to_the_wall_force():
 
 
 def test_naca_drag_study_richardson_recovers_order_and_limit():
-    """bench/naca_drag_study.py: three levels of f = f0 + C h^p on the validation meshes' cell counts (unequal
-    refinement ratios) give back p and f0; values that no order explains (not monotone) give None."""
-    from naca_drag_study import richardson
+    """The drag study's Richardson extrapolation: three levels of f = f0 + C h^p on the validation meshes' cell
+    counts (unequal refinement ratios) give back p and f0; values that no order explains (not monotone) give None."""
+    from solver.validation.naca_openfoam import richardson
 
     cells = [10800, 21728, 41184]
     h = 1 / np.sqrt(np.asarray(cells, float))
@@ -72,7 +73,7 @@ def test_naca_drag_study_richardson_recovers_order_and_limit():
 def test_naca_drag_study_total_pressure_loss_flux():
     """The free stream loses no total pressure; a uniform deficit δ in a uniform stream gives a loss flux of δ
     times the line's length within the near field (0.2 c), positive downstream on both surfaces."""
-    from naca_drag_study import NEAR_FIELD, loss_flux, total_pressure_deficit
+    from solver.validation.naca_openfoam import NEAR_FIELD, loss_flux, total_pressure_deficit
 
     cm = naca0012_cmesh(SPEC, alpha_deg=0.0)
     n = cm.mesh.n_cells
@@ -87,24 +88,26 @@ def test_naca_drag_study_total_pressure_loss_flux():
 
 
 def test_naca_options_refuse_negative_values():
-    """``--of-non-orthogonal`` takes an integer >= 0 and ``--mf-cl-rel`` a number >= 0; otherwise argparse names what
-    it got and exits with 2."""
-    from bench_naca_openfoam import main
+    """``--of-non-orthogonal`` takes an integer >= 0 and ``--mf-cl-rel`` a number >= 0 (:func:`non_negative`);
+    otherwise argparse names what it got and exits with 2."""
+    import argparse
 
-    for bad in ("-1", "two"):
+    from solver.validation.naca_openfoam import non_negative
+
+    parser = argparse.ArgumentParser()
+    parser.add_argument("--n", type=non_negative(int), default=0)
+    parser.add_argument("--r", type=non_negative(float), default=1e-4)
+    assert parser.parse_args(["--n", "2", "--r", "0"]) == argparse.Namespace(n=2, r=0.0)
+    for option, bad in (("--n", "-1"), ("--n", "two"), ("--r", "-1e-4"), ("--r", "nan"), ("--r", "tight")):
         with pytest.raises(SystemExit) as exc:
-            main(["--of-non-orthogonal", bad, "--codes", "openfoam", "--levels", "coarse"])
-        assert exc.value.code == 2
-    for bad in ("-1e-4", "nan", "tight"):
-        with pytest.raises(SystemExit) as exc:
-            main(["--mf-cl-rel", bad, "--codes", "millfoil", "--levels", "coarse"])
+            parser.parse_args([option, bad])
         assert exc.value.code == 2
 
 
 def test_naca_resumed_case_joins_its_coefficients_and_cpu(tmp_path):
     """``--of-resume``: the controlDict starts from the latest time; the record reads the forceCoeffs files of every
     start in time order (10000 after 4000, not before it) and adds the CPU seconds of every simpleFoam log."""
-    from bench_naca_openfoam import cpu_seconds, read_coefficients, write_controls
+    from solver.validation.naca_openfoam import cpu_seconds, read_coefficients, write_controls
 
     write_controls(tmp_path, 10.0, 12000, resume=True)
     control = (tmp_path / "system/controlDict").read_text()
@@ -127,7 +130,7 @@ def test_naca_resumed_case_joins_its_coefficients_and_cpu(tmp_path):
 def test_naca_criteria_names_the_angles_outside_each_tolerance():
     """The criteria summary: lift from 2° and drag from 0° up to the reference's C_L,max, not beyond; the angle of
     C_L,max of each code; an oscillating run by its window mean; the level-to-level C_L change of both codes."""
-    from bench_naca_openfoam import criteria
+    from solver.validation.naca_openfoam import criteria
 
     def rec(c_l, c_d, window=None):
         r = {"c_l": c_l, "c_d": c_d, "converged": window is None, "cl_spread_window": 1e-2 if window else None}
