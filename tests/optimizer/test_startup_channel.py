@@ -13,10 +13,20 @@ from optimizer.pipeline import evaluate  # noqa: E402
 def test_coarse_channel_blade_needs_the_gentle_start(startup_iterations, status):
     """Random blade 3 of ``bench/bench_robustness.py`` (seed 2013) in the campaigns' channel at coarse: from the
     free stream at alpha_u 0.95 the velocity explodes at iteration 8; 50 iterations at 0.7 first and it converges
-    (470 iterations). Of the 50 blades of that sweep, blade 3 is one that still needs the start-up with the
-    blades' present defaults. The parameters below are its draw; the sweep that finds it, with the start-up off:
-    ``python bench/bench_robustness.py --blades 50 --level coarse --mesh-set half_height=1.0 --set
-    startup_iterations=0`` (its records name each blade's index, parameters and status)."""
+    (470 iterations, F_Y -8 697 N/m). The parameters below are that blade's draw; each figure comes back, in
+    seconds, from the sweep run for that blade alone (``--blades 4 --shard 3/4``: blade 3 of the first four)::
+
+        python bench/bench_robustness.py --blades 4 --shard 3/4 --workers 1 --level coarse \\
+            --mesh-set half_height=1.0 --set startup_iterations=0 --out runs/startup_off.jsonl   # diverged, 8
+        python bench/bench_robustness.py --blades 4 --shard 3/4 --workers 1 --level coarse \\
+            --mesh-set half_height=1.0 --out runs/startup_on.jsonl                               # converged, 470
+        python bench/bench_robustness.py --blades 4 --shard 3/4 --workers 1 --level medium \\
+            --mesh-set half_height=1.0 --out runs/startup_medium.jsonl                           # -8 964.2 N/m
+
+    The converged lift is checked against the same blade at medium (converged in 510 iterations, F_Y
+    -8 964.2 N/m; the coarse mesh's lift is 3.0 % below it): a failure of the status means the start-up no longer
+    carries this blade through (or it no longer needs one), a failure of the lift that the coarse answer moved
+    by more than the tolerance of 7 % from the finer mesh's."""
     params = {"L": 0.1, "alpha": 13.026401193492816, "beta1": -4.458539970563319, "beta1bar": 23.893982190206568,
               "u_s2": 0.2409011347599074, "d_s1": 0.007899870594468091, "d_s2": 0.010126170400710045,
               "d_s3": 0.024791527719602736, "d_s4": 0.002, "d_p1": 0.007382324129303904,
@@ -27,5 +37,4 @@ def test_coarse_channel_blade_needs_the_gentle_start(startup_iterations, status)
     summary = ev.summary()
     assert summary["status"] == status
     if status == "converged":
-        # the same blade at medium (converged, -8 218 N/m): the coarse mesh's own lift is 5.8 % above it
-        assert summary["F_Y"] == pytest.approx(-8218.2, rel=0.07)
+        assert summary["F_Y"] == pytest.approx(-8964.2, rel=0.07)     # the same blade at medium
