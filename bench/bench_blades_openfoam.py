@@ -64,10 +64,10 @@ ROOT = Path(__file__).parents[1]
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "bench"))
 
-from bench_openfoam import BLADE_PATCH_TYPES, run_openfoam, write_case  # noqa: E402
 from bench_paper_blades import BLADES as PAPER_BLADES  # noqa: E402
-from bench_robustness import draw_blades, overrides  # noqa: E402
 
+from geometry.draws import draw_blades  # noqa: E402
+from optimizer.peers import BLADE_PATCH_TYPES, run_openfoam, write_case  # noqa: E402
 from solver.validation.openfoam import DEPTH, ensure_openfoam, latest_time, read_dat, read_field, write_polymesh  # noqa: E402
 
 #: The blades' same-mesh criteria (docs/explanation/validation.md): |C_L ratio - 1| and |C_max ratio - 1|.
@@ -109,10 +109,10 @@ def blade_configs(paper: list[str], indices: list[int], level: str, solver: dict
 def split_variant(items: list[str]) -> tuple[dict, dict]:
     """``(solver: keys, SST fields)`` of the ``--mf-set`` items (a key of both, e.g. ``omega_production``, is
     taken as the ``solver:`` key); an unknown key is an error."""
-    from optimizer.config import SolverConfig
+    from optimizer.config import SolverConfig, apply_overrides
     from solver.turbulence import SST
 
-    values = overrides(items)
+    values = apply_overrides({}, [f"solver.{item}" for item in items]).get("solver", {})
     solver_keys = set(SolverConfig.model_fields)
     sst_keys = {f.name for f in dataclasses.fields(SST)} - solver_keys
     unknown = sorted(set(values) - sst_keys - solver_keys)

@@ -21,8 +21,9 @@ sys.path.insert(0, str(Path(__file__).parents[1] / "tests" / "geometry"))
 
 from envelope import exact_machined, hausdorff  # noqa: E402
 
-from geometry import BladeSpec, ParameterSpace, build_profile, evaluate_blade  # noqa: E402
+from geometry import BladeSpec, ParameterSpace, build_profile  # noqa: E402
 from geometry.blade import tool_path_pieces  # noqa: E402
+from geometry.draws import draw_feasible  # noqa: E402
 from geometry.examples import TABLE4_C2_DESIGN, TABLE5_G1_TOOLPATH  # noqa: E402
 
 
@@ -61,11 +62,10 @@ def main() -> None:
             space = ParameterSpace.default(mode, continuity)
             times, deviation, tried, found = [], 0.0, 0, 0
             while found < args.blades and tried < 200 * args.blades:
-                tried += 1
-                spec = space.spec(space.sample(1, rng)[0])
-                result = evaluate_blade(spec)
-                if not result.feasible:
-                    continue
+                spec, result, draws = draw_feasible(space, rng, 200 * args.blades - tried)
+                tried += draws
+                if spec is None:
+                    break
                 found += 1
                 _, seconds = timed_build(spec, repeat=1)
                 times.append(seconds)

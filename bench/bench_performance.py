@@ -25,15 +25,14 @@ import json
 import os
 import platform
 import statistics
-import sys
 import time
 from pathlib import Path
 
 import numpy as np
 
+from geometry.draws import draw_blades
+
 ROOT = Path(__file__).parents[1]
-sys.path.insert(0, str(ROOT))
-sys.path.insert(0, str(ROOT / "bench"))
 
 BENCHMARK = ROOT / "configs" / "examples" / "bench_g1_design.yaml"
 
@@ -47,12 +46,10 @@ def iterations_within(history: np.ndarray, tol: float) -> int:
 
 def run_case(raw: dict, overrides: list[str]) -> dict:
     """One evaluation of the blade configuration ``raw`` (a mapping) with ``solver.<key>=value`` overrides."""
-    from bench_robustness import overrides as key_values
-
-    from optimizer.config import Config
+    from optimizer.config import Config, apply_overrides
     from optimizer.pipeline import evaluate
 
-    raw = {**raw, "solver": {**raw.get("solver", {}), **key_values(overrides)}}
+    raw = apply_overrides(raw, [f"solver.{item}" for item in overrides])
     c0, t0 = time.process_time(), time.perf_counter()
     ev = evaluate(Config.from_mapping(raw))
     cpu, wall = time.process_time() - c0, time.perf_counter() - t0
@@ -75,8 +72,6 @@ def cases(n_random: int, levels: list[str]) -> list[tuple[str, dict]]:
     bench = yaml.safe_load(BENCHMARK.read_text())
     blades = [("benchmark", bench)]
     if n_random:
-        from bench_robustness import draw_blades
-
         for i, (mode, cont, params) in enumerate(draw_blades(n_random, 2013)):
             blades.append((f"random{i} {mode} {cont}",
                            {"blade": {"mode": mode, "continuity": cont, "parameters": params}}))

@@ -1,7 +1,7 @@
 """Robustness of one evaluation (geometry → mesh → RANS solve) over random blades of the Table 6 space.
 
-Draws seeded random parameter sets per (mode, continuity), keeps the geometrically feasible ones until
-``--blades`` blades are collected (round robin over the ten families, both modes), evaluates each with
+Draws seeded random feasible blades (:func:`geometry.draws.draw_blades`: round robin over the ten families, both
+modes) until ``--blades`` blades are collected, evaluates each with
 ``optimizer.pipeline.evaluate`` in the paper's flow (the embedded defaults: water, C0 = 10 m/s, 5 %
 inlet turbulence, k-ω SST) at ``--level``, and prints:
 
@@ -49,25 +49,7 @@ from pathlib import Path
 
 import numpy as np
 
-COMBINATIONS = [(m, c) for m in ("design", "toolpath") for c in ("G0", "G1", "C1", "G2", "C2")]
-
-
-def draw_blades(n: int, seed: int, max_draws: int = 200_000) -> list[tuple[str, str, dict]]:
-    """``n`` feasible blades ``(mode, continuity, parameters)``, round robin over :data:`COMBINATIONS`."""
-    from geometry import ParameterSpace, evaluate_blade
-
-    rng = np.random.default_rng(seed)
-    spaces = {mc: ParameterSpace.default(*mc) for mc in COMBINATIONS}
-    out, draws, k = [], 0, 0
-    while len(out) < n and draws < max_draws:
-        mode, cont = COMBINATIONS[k % len(COMBINATIONS)]
-        space = spaces[(mode, cont)]
-        blade_spec = space.spec(space.sample(1, rng)[0])
-        draws += 1
-        if evaluate_blade(blade_spec).feasible:
-            out.append((mode, cont, {name: float(v) for name, v in blade_spec.values.items()}))
-            k += 1
-    return out
+from geometry.draws import draw_blades
 
 
 def evaluate_one(task: tuple[int, str, str, dict, str, int, dict, dict, str | None]) -> dict:
