@@ -134,7 +134,7 @@ def table(cmp: CentrelineComparison, re: int) -> list[dict]:
 #: mesh (quads for x < 0.5, triangles for x > 0.5). coarse: n = 32 (1 813 cells); measured RMS 0.32 %
 #: with linear upwind, 0.63 % with first-order upwind, so 0.45 % fails a first-order convection scheme.
 #: medium: n = 64 (~7 100 cells), fine: n = 100 (17 415 cells, <= 20 000 as the acceptance asks), both with the
-#: issue's tolerances (1 % at Re 100, 2 % at Re 1000).
+#: acceptance tolerances (1 % at Re 100, 2 % at Re 1000).
 CAVITY_LEVELS = {"coarse": {100: (32, 0.0045)},
                  "medium": {100: (64, TOLERANCE[100]), 1000: (64, TOLERANCE[1000])},
                  "fine": {100: (100, TOLERANCE[100]), 1000: (100, TOLERANCE[1000])}}

@@ -42,7 +42,7 @@ X_UPSTREAM, X_END, HEIGHT = -0.33, 2.0, 1.0
 #: TMR station and reference values (finest grid 545x385, CFL3D SST-V; FUN3D agrees to 0.01 % / 0.3 %).
 X_CF = 0.97
 REFERENCE = {"cf_x0.97": 0.00269, "C_D": 0.00285}
-#: Issue tolerances (relative): c_f 2 %, C_D 3 %.
+#: Acceptance tolerances (relative): c_f 2 %, C_D 3 %.
 TOLERANCE = {"cf_x0.97": 0.02, "C_D": 0.03}
 
 #: Mesh per level: cells upstream (symmetry) / along the plate / normal to the wall, first spacings at the
@@ -184,7 +184,7 @@ def run_flatplate(level: str = "coarse", wall_treatment: str = "low_re", turbule
 #: a turbulence model (laminar) 89 % / 85 % low, and with F1 = 0 (k-epsilon branch everywhere) 22 % / 23 %
 #: high, so 5 % catches both. With F1 = 1 everywhere (the k-omega branch) c_f is 0.9 % high: on this case
 #: (zero pressure gradient, TMR freestream) the coarse level cannot separate it (the f1 unit tests do).
-#: medium (11 520 cells, measured 0.8 % / 0.9 %) and fine (28 672 cells, 0.2 % / 0.3 %): the issue's 2 % (c_f)
+#: medium (11 520 cells, measured 0.8 % / 0.9 %) and fine (28 672 cells, 0.2 % / 0.3 %): the acceptance's 2 % (c_f)
 #: and 3 % (C_D).
 FLATPLATE_TOLERANCES = {"coarse": {"cf": 5.0, "C_D": 5.0}, "medium": {"cf": 2.0, "C_D": 3.0},
                         "fine": {"cf": 2.0, "C_D": 3.0}}

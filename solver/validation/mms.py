@@ -115,7 +115,7 @@ def observed_order(h, e) -> float:
 #: MMS refinement levels (:func:`run_level`: uniform refinements of one 170-cell gmsh triangle
 #: mesh) and the allowed shortfall of the observed (velocity, pressure) order from 2. coarse (170 / 680 /
 #: 2 720 cells, ~10 s): measured 2.28 / 2.46; medium (680 / 2 720 / 10 880 cells): 1.98 / 1.88; fine: all
-#: four. Every level asks the issue's >= 1.8 velocity, >= 1.5 pressure; a first-order scheme gives ~1.
+#: four. Every level asks the acceptance's >= 1.8 velocity, >= 1.5 pressure; a first-order scheme gives ~1.
 MMS_LEVELS = {"coarse": ((0, 1, 2), (0.2, 0.5)), "medium": ((1, 2, 3), (0.2, 0.5)),
               "fine": ((0, 1, 2, 3), (0.2, 0.5))}
 

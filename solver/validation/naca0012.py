@@ -63,9 +63,9 @@ REYNOLDS = 6e6
 MACH = 0.15
 #: Angles of attack with reference data, deg.
 ALPHAS = (0.0, 10.0)
-#: Issue tolerances per angle: C_L absolute at 0° and relative at 10°, C_D relative.
+#: Acceptance tolerances per angle: C_L absolute at 0° and relative at 10°, C_D relative.
 TOLERANCE = {0.0: {"C_L_abs": 0.005, "C_D_rel": 0.08}, 10.0: {"C_L_rel": 0.02, "C_D_rel": 0.08}}
-#: The issue asks only to report the RMS of C_p(computed) - C_p(CFL3D) over the reference points; this
+#: The acceptance asks only to report the RMS of C_p(computed) - C_p(CFL3D) over the reference points; this
 #: project tolerance (about 2 % of the α = 10° suction peak |C_p| ~ 5.5) flags gross errors. Measured
 #: (SST, converged, docs/explanation/naca0012.md runs B): α = 0: 0.011 / 0.003 / 0.003 (coarse / medium / fine);
 #: α = 10: 0.077 / 0.041 / 0.031.

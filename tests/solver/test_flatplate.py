@@ -1,6 +1,6 @@
 """NASA TMR 2D zero-pressure-gradient flat plate with SST (coarse level, CI size) against the TMR data.
 
-Issue tolerances on finer meshes (not run here): ``millfoil validate flatplate --level medium`` / ``fine``
+Acceptance tolerances on finer meshes (not run here): ``millfoil validate flatplate --level medium`` / ``fine``
 (c_f(0.97) within 2 %, C_D within 3 %), and ``run_case('flatplate', 'fine')``.
 """
 
