@@ -155,11 +155,10 @@ NEAR_STALL_SST = {"omega_production": "limited", "omega_wall_flux": "two_point"}
 def naca_turbulence(near_stall: bool = False) -> SST:
     """The case's k-omega SST: SST-2003 with the ``low_re`` wall treatment and OpenFOAM's limited omega
     production (``omega_production="limited"``, the blades' default too,
-    docs/decisions/0004-limited-omega-production.md: against OpenFOAM on the same
-    coarse C-mesh the lift at 16 deg -0.61 % instead of -1.54 %, at 10-15 deg +0.76 ... -0.16 %; the TMR
-    references stay met on every level, docs/explanation/validation.md); ``near_stall``: with
-    :data:`NEAR_STALL_SST` (used
-    with :data:`NEAR_STALL_SETTINGS`, see the module docstring)."""
+    docs/decisions/0004-limited-omega-production.md: against OpenFOAM on the same coarse C-mesh the lift at
+    16 deg -0.61 % instead of -1.54 %, at 10-15 deg +0.76 ... -0.16 %; the TMR references stay met on every
+    level, docs/explanation/validation.md); ``near_stall``: with :data:`NEAR_STALL_SST` (used with
+    :data:`NEAR_STALL_SETTINGS`, see the module docstring)."""
     return SST(wall_treatment="low_re", **{"omega_production": "limited", **(NEAR_STALL_SST if near_stall else {})})
 
 
@@ -172,14 +171,13 @@ def naca_settings(near_stall: bool = False, **overrides) -> SimpleSettings:
     SIMPLEC coefficient ``V / (a_P/alpha_u - sum a_nb)`` of :mod:`solver.simple` turns negative where a
     cell's remaining mass imbalance (net inflow) exceeds ``(1/alpha_u - 1) a_P`` (measured: near the
     leading edge, and in the far-wake cells near the outflow plane); SIMPLE's ``V / a_P`` stays positive.
-    The blades' pressure gradient, ``green_gauss_bounded`` (docs/decisions/0001-blade-pressure-gradient.md; the
-    solver's default is least
-    squares): against OpenFOAM on the same C-mesh the coarse lift at 16 deg -1.6 % instead of -5.4 %, and
-    the TMR references met on every level (docs/explanation/naca0012.md, docs/explanation/validation.md). And their
-    face velocity,
-    ``bounded`` (docs/decisions/0002-bounded-face-velocity.md): the trailing-edge corner keeps OpenFOAM's
-    trailing-edge loading, and the
-    coarse lift at 2-8 deg comes within 1 % of OpenFOAM's (+1.1 ... +1.75 % before).
+    The blades' pressure gradient, ``green_gauss_bounded`` (docs/decisions/0001-blade-pressure-gradient.md;
+    the solver's default is least squares): against OpenFOAM on the same C-mesh the coarse lift at 16 deg
+    -1.6 % instead of -5.4 %, and the TMR references met on every level (docs/explanation/naca0012.md,
+    docs/explanation/validation.md). And their face velocity, ``bounded``
+    (docs/decisions/0002-bounded-face-velocity.md): the trailing-edge corner keeps OpenFOAM's trailing-edge
+    loading, and the coarse lift at 2-8 deg comes within 1 % of OpenFOAM's (+1.1 ... +1.75 % with the
+    unbounded face velocity).
 
     ``near_stall``: with :data:`NEAR_STALL_SETTINGS`. A ``limiter_iterations`` override counts the iterations
     of the whole run (:data:`LIMITER_ITERATIONS`): :func:`run_naca0012` turns it into each chunk's own count.
