@@ -63,7 +63,7 @@ def run_batch(workers: int, fn, payloads: list[dict], timeout: float) -> dict:
         t0 = time.perf_counter()
         results = list(runner.run(fn, tasks))
         wall = time.perf_counter() - t0
-    statuses = [r.status if r.status != "done" else (r.record or {}).get("status", "done") for r in results]
+    statuses = [r.status if r.record is None else r.record.status for r in results]
     busy = sum(r.seconds for r in results) / (workers * wall)  # share of the wall time workers spent on tasks
     return {"workers": workers, "tasks": len(tasks), "wall_s": wall, "per_hour": len(tasks) / wall * 3600,
             "utilisation": busy,
