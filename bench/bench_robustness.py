@@ -32,8 +32,8 @@ replaying stop rules offline, e.g. with ``--set early_classify=false`` to the ca
 (repeatable) overrides a key of the ``solver:`` section (the value read as JSON where it parses), e.g. to
 sweep the blades with other solver settings before changing a default. ``--mesh-set KEY=VALUE`` does the
 same for the ``mesh:`` section: the default domain is open (``half_height`` 5 chords), the campaigns and the
-paper's configs use the confined channel (``half_height: 1.0``; docs/explanation/performance.md, "Start-up divergence in
-the channel at coarse").
+paper's configs use the confined channel (``half_height: 1.0``), where coarse meshes need the solver's start-up
+relaxation (docs/decisions/0011-start-up-relaxation.md: this sweep with and without it).
 """
 
 from __future__ import annotations
@@ -44,21 +44,34 @@ import math
 import platform
 import time
 from collections import defaultdict
-from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 import numpy as np
 
 from geometry.draws import draw_blades
+from optimizer.campaign.runner import make_runner
+
+#: The fields of a sweep task's payload, in :func:`task` order.
+TASK_FIELDS = ("index", "mode", "continuity", "parameters", "level", "max_iter", "solver", "mesh", "save_dir")
 
 
-def evaluate_one(task: tuple[int, str, str, dict, str, int, dict, dict, str | None]) -> dict:
-    """Evaluate one blade; never raises: the outcome is in the record. With a save directory (the
-    task's last item), the monitor and residual histories of the solve go to ``blade_<index>.npz`` there."""
+def task(*values):
+    """The campaign runner's :class:`~optimizer.campaign.runner.Task` of one blade (keyed by its index);
+    ``values`` in :data:`TASK_FIELDS` order."""
+    from optimizer.campaign.runner import Task
+
+    payload = dict(zip(TASK_FIELDS, values, strict=True))
+    return Task(key=str(payload["index"]), payload=payload, generation=0)
+
+
+def evaluate_one(payload: dict) -> dict:
+    """Evaluate one blade (a :func:`task`'s payload; the runner's ``deadline_s`` is not used); never raises:
+    the outcome is in the record. With a save directory (``save_dir``), the monitor and residual histories of
+    the solve go to ``blade_<index>.npz`` there."""
     from optimizer.config import Config
     from optimizer.pipeline import evaluate
 
-    index, mode, cont, params, level, max_iter, solver, mesh, save_dir = task
+    index, mode, cont, params, level, max_iter, solver, mesh, save_dir = (payload[k] for k in TASK_FIELDS)
     raw = {"blade": {"mode": mode, "continuity": cont, "parameters": params}, "mesh": {**mesh, "level": level},
            "solver": {**solver, **({"max_iter": max_iter} if max_iter else {})}}
     record = {"index": index, "mode": mode, "continuity": cont, "parameters": params, "level": level,
@@ -186,12 +199,12 @@ def main() -> None:
     save = None if args.save_monitors is None else str(args.save_monitors)
     done = {r["index"] for r in read_records([args.out]) if "index" in r}
     if args.retry:
-        tasks = [(r["index"], r["mode"], r["continuity"], r["parameters"], r["level"], args.max_iter, solver, mesh,
-                  save)
+        tasks = [task(r["index"], r["mode"], r["continuity"], r["parameters"], r["level"], args.max_iter, solver, mesh,
+                      save)
                  for r in read_records(args.retry) if r["status"] == args.retry_status and r["index"] not in done]
     else:
         blades = draw_blades(args.blades, args.seed)
-        tasks = [(i, m, c, p, args.level, args.max_iter, solver, mesh, save) for i, (m, c, p) in enumerate(blades)
+        tasks = [task(i, m, c, p, args.level, args.max_iter, solver, mesh, save) for i, (m, c, p) in enumerate(blades)
                  if i % n == k and i not in done]
     print(f"{platform.node()} {platform.processor() or platform.machine()}, {args.workers} workers, "
           + (f"retrying the {args.retry_status} blades of {len(args.retry)} record files"
@@ -199,8 +212,18 @@ def main() -> None:
           + (f", solver overrides {solver}" if solver else "") + (f", mesh overrides {mesh}" if mesh else "")
           + f": {len(done)} blades already in {args.out}, {len(tasks)} to evaluate")
     args.out.parent.mkdir(parents=True, exist_ok=True)
-    with ProcessPoolExecutor(args.workers) as pool, args.out.open("a") as fh:
-        for i, rec in enumerate(pool.map(evaluate_one, tasks), 1):
+    by_key = {t.key: t.payload for t in tasks}
+    # the campaign runner: in this process for one worker, else a local dask cluster of --workers processes;
+    # an evaluation stops at its own iteration cap, so the runner's timeout (a day) never cuts one short
+    execution = {"backend": "inline"} if args.workers == 1 else {"backend": "local", "workers": args.workers}
+    with make_runner({**execution, "timeout": 86400.0}) as runner, args.out.open("a") as fh:
+        for i, result in enumerate(runner.run(evaluate_one, tasks), 1):
+            rec = result.record
+            if rec is None:                     # the worker was lost or raised: recorded as a failed blade
+                payload = by_key[result.key]
+                rec = {k: payload[k] for k in ("index", "mode", "continuity", "parameters", "level")} | {
+                    "status": "failed", "stage": "runner", "message": f"{result.status}: {result.reason}",
+                    "seconds_total": result.seconds}
             fh.write(json.dumps(rec, default=str) + "\n")
             fh.flush()
             print(f"[{i}/{len(tasks)}] {rec['mode']} {rec['continuity']}: {rec['status']}"
