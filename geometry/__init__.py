@@ -7,7 +7,7 @@ configuration values (degrees); see :mod:`geometry.parameters` and ``docs/explan
 from geometry.bezier import BezierCurve
 from geometry.blade import BladeCurves, blade_curves, tool_path_pieces
 from geometry.camber import CamberError, camber_line
-from geometry.feasibility import BladeResult, Constraint, constraint_names, draw_feasible, evaluate_blade
+from geometry.feasibility import BladeResult, Constraint, constraint_names, evaluate_blade
 from geometry.nbuffer import MachinedBoundary, machine
 from geometry.parameters import (
     BladeSpec,
@@ -40,7 +40,6 @@ __all__ = [
     "build_profile",
     "camber_line",
     "constraint_names",
-    "draw_feasible",
     "evaluate_blade",
     "machine",
     "parameters_of",

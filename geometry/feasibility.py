@@ -26,7 +26,7 @@ from scipy.optimize import minimize_scalar
 
 from geometry.bezier import BezierCurve
 from geometry.blade import BladeCurves, blade_curves, tool_path_pieces
-from geometry.parameters import BladeSpec, Mode, ParameterSpace
+from geometry.parameters import BladeSpec, Mode
 from geometry.profile import DEFAULT_TOLERANCE, GeometryError, Profile, build_profile, path_polyline
 from geometry.sampling import DENSE
 
@@ -75,18 +75,6 @@ def constraint_names(mode: Mode) -> tuple[str, ...]:
     if Mode(mode) is Mode.TOOLPATH:
         return ("eq21_inlet", "eq21_outlet", "eq22_curvature", "sides_simple", "machined_intact")
     return ("eq21_inlet", "eq21_outlet", "sides_simple")
-
-
-def draw_feasible(space: ParameterSpace, rng: np.random.Generator, max_draws: int) -> tuple[BladeResult | None, int]:
-    """Rejection sampling of one geometrically feasible blade of ``space``: design vectors drawn uniformly, one at a
-    time from ``rng``, until a blade passes every constraint. Returns its :class:`BladeResult` (None when
-    ``max_draws`` draws found none) and the number of draws taken. One draw at a time keeps a seeded sequence of
-    blades the same whatever is drawn after it."""
-    for draws in range(1, max_draws + 1):
-        result = evaluate_blade(space.spec(space.sample(1, rng)[0]))
-        if result.feasible:
-            return result, draws
-    return None, max_draws
 
 
 def evaluate_blade(spec: BladeSpec, tolerance: float = DEFAULT_TOLERANCE) -> BladeResult:

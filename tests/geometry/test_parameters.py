@@ -64,14 +64,15 @@ def test_fixed_parameters_take_their_default():
     assert spec["L"] == 0.1 and spec["d_s4"] == 0.002
 
 
+
 def test_draw_feasible_returns_a_feasible_blade_and_counts_its_draws():
     import numpy as np
 
-    from geometry import ParameterSpace, draw_feasible
+    from geometry.draws import draw_feasible
 
     space = ParameterSpace.default("design", "G0")      # about a third of uniform draws are feasible
-    result, draws = draw_feasible(space, np.random.default_rng(3), 100)
+    spec, result, draws = draw_feasible(space, np.random.default_rng(3), 100)
     assert result is not None and result.feasible and 1 <= draws <= 100
-    again, same = draw_feasible(space, np.random.default_rng(3), 100)
-    assert same == draws and again.spec.values == result.spec.values       # seeded: the same blade
-    assert draw_feasible(space, np.random.default_rng(3), 0) == (None, 0)  # no budget, no blade
+    again, _, same = draw_feasible(space, np.random.default_rng(3), 100)
+    assert same == draws and again.values == spec.values                  # seeded: the same blade
+    assert draw_feasible(space, np.random.default_rng(3), 0) == (None, None, 0)   # no budget, no blade
