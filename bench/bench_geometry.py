@@ -72,9 +72,9 @@ def main() -> None:
                 if mode == "toolpath":
                     exact = exact_machined(tool_path_pieces(result.profile.curves), spec["R"])
                     deviation = max(deviation, hausdorff(result.profile.points, exact))
-            print(f"{mode + ' ' + continuity:16s} {found:4d}/{tried:<5d}"
-                  f" {np.median(times) * 1e3:7.1f}ms {max(times) * 1e3:7.1f}ms"
-                  f" {deviation * 1e6:8.3f}µm")
+            timing = (f" {np.median(times) * 1e3:7.1f}ms {max(times) * 1e3:7.1f}ms" if times
+                      else f" {'—':>9s} {'—':>9s}")             # no feasible blade within the draws
+            print(f"{mode + ' ' + continuity:16s} {found:4d}/{tried:<5d}{timing} {deviation * 1e6:8.3f}µm")
 
 
 if __name__ == "__main__":
