@@ -7,9 +7,9 @@ out); error measure: RMS over the points of ``computed - reference``, as a fract
 
     millfoil validate cavity --level fine      # Re 100 and 1000 on the n = 100 gmsh mesh
 
-Other meshes and Reynolds numbers through the API (formerly ``python -m solver.cavity --re --n --mesh
---triangles --distort --json``): ``res, cmp = run_cavity(1000, 128, "structured", "checker", 0.2)``;
-``table(cmp, 1000)`` gives the per-point records.
+Other meshes and Reynolds numbers through the API:
+``res, cmp = run_cavity(1000, 128, "structured", "checker", 0.2)``; ``table(cmp, 1000)`` gives the per-point
+records.
 """
 
 from __future__ import annotations

@@ -16,9 +16,8 @@ drag coefficient ``C_D = D / (0.5 rho U² L)`` with L = 2 (0.00285), per the TMR
 
     millfoil validate flatplate --level medium          # prints the comparison
 
-Wall treatment, first spacing and progress through the API (formerly ``python -m solver.flatplate --wall
---dy-wall --every``): ``run_flatplate("coarse", "automatic", mesh_overrides={"dy_wall": 1e-4},
-callback=...)``.
+Wall treatment, first spacing and progress through the API:
+``run_flatplate("coarse", "automatic", mesh_overrides={"dy_wall": 1e-4}, callback=...)``.
 """
 
 from __future__ import annotations

@@ -18,9 +18,8 @@ orders from three of them scatter by ±0.3.
 
     millfoil validate mms --level medium     # errors and observed orders on 3 triangle meshes
 
-Other refinements, viscosities and the union-jack meshes through the API (formerly ``python -m solver.mms
---refinements --mu --mesh``): ``[run_level(r, mu=0.1, kind="structured") for r in (0, 1, 2)]`` and
-:func:`observed_order`.
+Other refinements, viscosities and the union-jack meshes through the API:
+``[run_level(r, mu=0.1, kind="structured") for r in (0, 1, 2)]`` and :func:`observed_order`.
 """
 
 from __future__ import annotations

@@ -30,8 +30,7 @@ from the TMR files): C_L, C_D at α = 0° and 10° (agreed tolerances: α = 0: |
     millfoil validate naca0012 --alpha 10 --level medium     # prints the comparison
 
 Laminar harness checks, other Reynolds numbers, iteration caps, progress, restart files and wall-time
-limits through the API (formerly ``python -m solver.naca0012 --laminar --re --max-iter --verbose --state
---max-seconds``)::
+limits through the API::
 
     run_naca0012(0.0, "coarse", turbulent=False, reynolds=2000, convergence=Convergence(max_iter=3000),
                  progress=print, state_file="a0.npz", max_seconds=3600)

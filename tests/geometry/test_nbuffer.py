@@ -130,9 +130,9 @@ def test_the_envelope_check_can_fail():
     assert hausdorff(p + 2e-6 * normal, exact) > TOLERANCE
 
 
-# A G0 tool path (Eq. 21 and Eq. 22 satisfied) whose machined region is two pieces. The
-# rear piece's outline used to miss closing by 2.6 µm at its sharp tip; its stretches were dropped as
-# offset-loop tails and the blade was reported feasible and intact.
+# A G0 tool path (Eq. 21 and Eq. 22 satisfied) whose machined region is two pieces. An outline of the rear
+# piece that misses closing at its sharp tip (by 2.6 µm) has its stretches dropped as offset-loop tails, and the
+# blade is then reported feasible and intact.
 TWO_PIECE_G0 = {"L": 0.1, "alpha": 8.28752494789275, "beta1": -17.760956653105, "beta1bar": 30.7401247947212,
                 "u_s1": 0.067235509367243, "u_s2": 0.08913509556598925, "d_s1": 0.008146689040932367,
                 "d_s2": 0.013905913357973327, "d_s3": 0.02347793385907518, "d_s4": 0.002,
@@ -162,8 +162,8 @@ def test_a_blade_machined_into_two_pieces_is_reported_split():
 
 @pytest.mark.slow
 def test_both_pieces_of_the_split_blade_lie_within_one_micrometre():
-    """Both outlines close, and each lies within the tolerance of its exact piece, sharp tips included (the
-    front piece's tip used to be 2 µm off, the rear piece's outline did not close by 2.6 µm)."""
+    """Both outlines close, and each lies within the tolerance of its exact piece, sharp tips included (a front
+    piece's tip 2 µm off, or a rear piece's outline open by 2.6 µm, fails it)."""
     _, pieces = two_piece_g0()
     exact = exact_machined(pieces, R)
     assert exact.geom_type == "MultiPolygon" and len(exact.geoms) == 2  # the reference: two pieces

@@ -214,10 +214,11 @@ def test_spec_validation():
 
 @pytest.mark.slow
 def test_sharp_leading_edge_fan_rays_turn_smoothly():
-    """A ~10° wedge (bench sweep): the fan's last ray used to kink by ~65° where its straight part met the
-    field line, making a quad with scaled Jacobian 0.395 at medium. The wedge is where the cutter of this
-    G0 tool path cuts through the blade: the machined part is two pieces (a split blade, infeasible since
-    a machined G0 tool path), and the wedge is the tip of the rear piece, meshed here as an outline of its own."""
+    """A ~10° wedge (``bench/bench_robustness.py`` sweep): the fan's last ray turns smoothly where its straight
+    part meets the field line (a kink of ~65° there makes a quad with scaled Jacobian 0.395 at medium). The
+    wedge is where the cutter of this G0 tool path cuts through the blade: the machined part is two pieces (a
+    split blade, infeasible since a machined G0 tool path), and the wedge is the tip of the rear piece, meshed
+    here as an outline of its own."""
     values = {"L": 0.1, "alpha": -2.3450748970232063, "beta1": -3.3346406298029905,
               "beta1bar": 34.904135393777345, "u_s1": 0.05545520146762559, "u_s2": 0.30621013205189723,
               "d_s1": 0.009516768934614029, "d_s2": 0.006545306812336067, "d_s3": 0.03190649602985245,
@@ -243,10 +244,10 @@ BENCH_G1_DESIGN = {"L": 0.1, "alpha": 9.013, "beta1": -0.179, "beta1bar": 27.983
 @pytest.mark.slow
 @pytest.mark.parametrize("half_height", [0.6, 1.0])
 def test_narrow_channel_passes_quality(half_height):
-    """configs/examples/bench_g1_design.yaml (half_height 1): gmsh used to mesh the top and bottom walls
-    with the far-field size (one chord at coarse) although the graded size field asks for cells a few
-    times smaller there; where the wall's coarse front met the ring's fine one, triangles with scaled
-    Jacobian 0.31-0.39 appeared (0.03 at half_height 0.6). The walls now follow the size field."""
+    """configs/examples/bench_g1_design.yaml (half_height 1): the top and bottom walls follow the graded size
+    field, which asks for cells a few times smaller there than the far-field size (one chord at coarse).
+    Meshed at the far-field size, the wall's coarse front meets the ring's fine one in triangles of scaled
+    Jacobian 0.31-0.39 (0.03 at half_height 0.6)."""
     profile = build_profile(BladeSpec.from_values("design", "G1", BENCH_G1_DESIGN))
     spec = MeshSpec.for_level("coarse", half_height=half_height)
     mesh = build_mesh(profile, spec)

@@ -17,8 +17,8 @@ from solver.validation.meshes import square_mesh
 
 needs_gmsh = pytest.mark.skipif(importlib.util.find_spec("gmsh") is None, reason="gmsh not installed")
 
-#: The solver settings these tests were written with (SimpleSettings' earlier defaults, before the blade
-#: evaluation's SIMPLE, 0.7, 0.3 the defaults): SIMPLEC, alpha_u 0.8, alpha_p 1, no early stop on stalled residuals.
+#: The solver settings of these tests, given in full so that they do not follow SimpleSettings' defaults: SIMPLEC,
+#: alpha_u 0.8, alpha_p 1, no early stop on stalled residuals.
 SIMPLEC = dict(algorithm="simplec", alpha_u=0.8, alpha_p=1.0, stall_tol=None)
 
 
