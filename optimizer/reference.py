@@ -228,12 +228,11 @@ def _commands(root: argparse.ArgumentParser) -> Iterator[tuple[str, argparse.Arg
 
 
 def _command(name: str, command: argparse.ArgumentParser) -> list[str]:
-    """The section of one command: usage (wrapped at :data:`USAGE_WIDTH`), description, a table of its
+    """The section of one command: usage (:func:`_usage`), description, a table of its
     arguments (positional ones under their usage name), epilog."""
-    command.formatter_class = functools.partial(command.formatter_class, width=USAGE_WIDTH)
     formatter = command._get_formatter()
-    usage = command.format_usage().strip()
-    lines = [f"## millfoil {name}", "", "```text", usage, "```", "", _prose(command.description or ""), ""]
+    lines = [f"## millfoil {name}", "", "```text", _usage(command), "```", "", _prose(command.description or ""),
+             ""]
     rows = []
     for action in command._actions:
         if isinstance(action, argparse._HelpAction):
@@ -253,6 +252,43 @@ def _command(name: str, command: argparse.ArgumentParser) -> list[str]:
     if command.epilog:
         lines += [_prose(command.epilog), ""]
     return lines
+
+
+def _usage(command: argparse.ArgumentParser) -> str:
+    """The usage of ``command`` wrapped at :data:`USAGE_WIDTH` by this module, not by argparse: argparse's own
+    wrapping differs between Python versions (3.13 keeps an option and its value on one line), its one-line
+    usage does not. Each option stays on one line with its value; continuation lines align under the first
+    argument, as ``--help`` writes them."""
+    command.formatter_class = functools.partial(command.formatter_class, width=1_000_000)
+    command.color = False   # Python 3.14 colours help where the terminal allows it
+    line = command.format_usage().strip()
+    head = f"usage: {command.prog} "
+    parts: list[str] = []
+    for token in _top_level_words(line.removeprefix(head)):
+        if parts and parts[-1].startswith("-") and " " not in parts[-1] and token[0] not in "-[(":
+            parts[-1] += f" {token}"   # an option's value: --format {csv,dxf}
+        else:
+            parts.append(token)
+    lines, current = [], head.rstrip()
+    for part in parts:
+        if len(current) + 1 + len(part) > USAGE_WIDTH and current.strip() != head.strip():
+            lines.append(current)
+            current = " " * (len(head) - 1)
+        current += f" {part}"
+    return "\n".join([*lines, current])
+
+
+def _top_level_words(text: str) -> list[str]:
+    """``text`` split at the spaces outside brackets: ``[--out FILE] --format {a,b}`` gives
+    ``[--out FILE]``, ``--format``, ``{a,b}``."""
+    words, depth, start = [], 0, 0
+    for i, char in enumerate(text + " "):
+        depth += (char in "[({") - (char in "])}")
+        if char == " " and depth == 0:
+            if text[start:i]:
+                words.append(text[start:i])
+            start = i + 1
+    return words
 
 
 def _cli_default(action: argparse.Action) -> str:

@@ -64,3 +64,16 @@ def test_every_command_and_option_is_on_the_page():
             if not isinstance(action, argparse._HelpAction):
                 assert f"| `{', '.join(action.option_strings) or action.metavar or action.dest}` |" in section, \
                     (name, action.dest)
+
+
+def test_usage_is_wrapped_by_the_generator_not_by_argparse():
+    """argparse's wrapping of a long usage differs between Python versions; the page's does not: every line
+    fits the width and an option stays on its line with its value."""
+    from optimizer.reference import USAGE_WIDTH
+
+    page = cli_markdown()
+    usages = [block.split("\n```", 1)[0] for block in page.split("```text\nusage: ")[1:]]
+    assert len(usages) > 5
+    for usage in usages:
+        assert all(len(line) <= USAGE_WIDTH for line in f"usage: {usage}".splitlines()), usage
+    assert "\n                       --format {csv,dxf,linuxcnc,sinumerik} [--out FILE]" in page
