@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import datetime as _dt
 import sys
+from collections import Counter
 from collections.abc import Sequence
 from pathlib import Path
 from typing import TextIO
@@ -94,12 +95,8 @@ def status_of(directory: str | Path) -> dict:
         config = saved_config(row.config)
         generations = store.generations()
         rows = list(store.evaluations())
-    by_status: dict[str, int] = {}
-    by_class: dict[str, int] = {}
-    for r in rows:
-        by_status[str(r.status)] = by_status.get(r.status, 0) + 1
-        if r.convergence:
-            by_class[r.convergence] = by_class.get(r.convergence, 0) + 1
+    by_status = dict(Counter(str(r.status) for r in rows))
+    by_class = dict(Counter(str(r.convergence) for r in rows if r.convergence))
     labels = [o.label for o in config.objectives]
     senses = {o.label: o.sense for o in config.objectives}
     best: dict[str, float] = {}
