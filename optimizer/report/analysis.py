@@ -18,6 +18,8 @@ from pathlib import Path
 
 import numpy as np
 
+from optimizer.campaign.store import non_dominated
+from optimizer.figures import pressure_coefficient_min
 from optimizer.report.run import Design, Run
 from solver.convergence import ConvergenceClass
 
@@ -75,7 +77,7 @@ def points(run: Run) -> list[Point]:
         if fy_span is None or f.get("c_max") is None or f.get("c_l") is None:
             continue
         fy, cl, cmax = abs(fy_span), abs(f["c_l"]), f["c_max"]
-        cpmin = abs(f["cp_min"]) if f.get("cp_min") is not None else abs(1 - cmax**2 / c0**2)
+        cpmin = abs(f["cp_min"]) if f.get("cp_min") is not None else abs(pressure_coefficient_min(cmax, c0))
         if not all(np.isfinite([fy, cl, cmax, cpmin])):
             continue
         m = d.row.monitors or {}
@@ -94,14 +96,13 @@ def _amplitude(monitors: dict, name: str) -> float:
 
 
 def front(pts: list[Point], x: str = "cmax", y: str = "fy") -> list[Point]:
-    """Non-dominated feasible points for min ``x``, max ``y``, sorted by ``x``."""
+    """Non-dominated feasible points for min ``x``, max ``y`` (:func:`optimizer.campaign.store.non_dominated`),
+    sorted by ``x``."""
     feas = sorted((p for p in pts if p.feasible), key=lambda p: (p.value(x), -p.value(y)))
-    out, best = [], -np.inf
-    for p in feas:
-        if p.value(y) > best:
-            out.append(p)
-            best = p.value(y)
-    return out
+    if not feas:
+        return []
+    keep = non_dominated(np.array([[p.value(x), -p.value(y)] for p in feas], float))
+    return [p for p, k in zip(feas, keep, strict=True) if k]
 
 
 def table7(run: Run, pts: list[Point]) -> dict[str, tuple[float, str, int] | None]:
