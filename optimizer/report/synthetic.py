@@ -22,6 +22,7 @@ from optimizer.campaign.config import CampaignConfig
 from optimizer.campaign.fields import fields_path, write_fields
 from optimizer.campaign.status import EvaluationStatus as Status
 from optimizer.campaign.store import STORE_NAME, EvaluationRow, GenerationRow, Store
+from optimizer.figures import lift_coefficient, pressure_coefficient_min
 from solver.convergence import ConvergenceClass
 
 #: Table 5 of the paper (tool-path G1, R = 5 mm; d_s4 = d_p4 = 2 mm machined, see configs/examples).
@@ -139,7 +140,8 @@ def _row(key: str, generation: int, names: list[str], values: dict, rng: np.rand
     span = 0.004                                  # 0.04 L, m: lift is in N over the span, fy in N/m
     fy = -lift / span
     figures = {"fx": 0.1 * lift / span, "fy": fy, "fx_span": 0.1 * lift, "fy_span": -lift,
-               "c_l": lift / (0.5 * 998.2 * 10.0**2 * 0.1 * span), "c_max": c_max, "cp_min": 1 - c_max**2 / 100.0,
+               "c_l": lift_coefficient(lift, 998.2, 10.0, 0.1, span), "c_max": c_max,
+               "cp_min": pressure_coefficient_min(c_max, 10.0),
                "yplus_max": 80.0, "yplus_mean": 35.0}
     monitors = {"fy:blade": {"mean": fy, "amplitude": amplitude / span, "drift": 0.0,
                              "period": 40 if amplitude else None, "status": cls},
