@@ -27,8 +27,9 @@ A campaign file is a configuration file (``blade:``, ``mesh:``, ``flow:``, ``sol
 ``output:``
     ``directory``: the run directory (store, resolved config), relative to the working directory.
 ``analytic:``
-    an analytic test problem instead of the blade (``problem: zdt1``, ``variables``, ``delay`` seconds per
-    evaluation): the whole loop, store, runner and CLI without CFD (tests, cluster checks).
+    an analytic test problem instead of the blade (``problem``: zdt1–3, dtlz2, mw1, mw2, mw3, mw7;
+    ``variables``; ``delay`` seconds per evaluation; injected ``failures``): the whole loop, store, runner
+    and CLI without CFD (tests, optimiser benchmarks, cluster checks).
 """
 
 from __future__ import annotations
@@ -56,8 +57,8 @@ from optimizer.config import (
 )
 from optimizer.yamlsource import Source
 
-__all__ = ["ANALYTIC", "FIGURES", "MONITOR_OF", "AlgorithmConfig", "AnalyticConfig", "CampaignConfig", "ClusterOptions",
-           "ConvergencePolicy", "Crossover", "ExecutionConfig", "FigureConstraint", "Mutation", "Objective",
+__all__ = ["ANALYTIC", "ANALYTIC_CONSTRAINTS", "FIGURES", "MONITOR_OF", "AlgorithmConfig", "AnalyticConfig", "CampaignConfig", "ClusterOptions",
+           "ConvergencePolicy", "Crossover", "ExecutionConfig", "FigureConstraint", "InjectedFailures", "Mutation", "Objective",
            "OutputConfig", "check_campaign", "load_campaign", "walltime_seconds"]
 
 #: Figures of :class:`optimizer.evaluate.Evaluation` that can be objectives or constraints, with units.
@@ -70,8 +71,12 @@ MONITOR_OF: dict[str, str] = {
     "fx": "fx:blade", "fx_span": "fx:blade", "fy": "fy:blade", "fy_span": "fy:blade", "c_l": "fy:blade",
     "c_max": "c_max", "cp_min": "c_max",
 }
-#: Analytic test problems and their objective names.
-ANALYTIC: dict[str, tuple[str, ...]] = {"zdt1": ("f1", "f2")}
+#: Analytic test problems (pymoo's, all on the unit box) and their objective names.
+ANALYTIC: dict[str, tuple[str, ...]] = {name: ("f1", "f2") for name in
+                                        ("zdt1", "zdt2", "zdt3", "dtlz2", "mw1", "mw2", "mw3", "mw7")}
+#: The inequality constraints (G ≤ 0 feasible) each analytic problem carries itself.
+ANALYTIC_CONSTRAINTS: dict[str, tuple[str, ...]] = {"mw1": ("g1",), "mw2": ("g1",), "mw3": ("g1", "g2"),
+                                                    "mw7": ("g1", "g2")}
 
 DEFAULT_OBJECTIVES = ({"figure": "fy", "sense": "max", "abs": True}, {"figure": "c_max", "sense": "min"})
 
@@ -173,18 +178,40 @@ class OutputConfig(Section):
                                             "but possibly not a power cut")
 
 
-class AnalyticConfig(Section):
-    """``analytic:`` — an analytic problem in place of the blade (loop tests without CFD).
+class InjectedFailures(Section):
+    """``analytic.failures:`` — designs of an analytic problem that fail as a CFD solve can, so that an
+    optimiser's handling of failures is tested where the answer is known. A failed design has no values
+    (status ``diverged`` in the hidden region, ``solve_failed`` for a random failure)."""
 
-    problem: ``zdt1`` (Zitzler, Deb & Thiele 2000; front f2 = 1 - sqrt(f1), f1 in [0, 1]).
-    variables: number of design variables in [0, 1]. delay: seconds each evaluation sleeps (to test
-    parallel execution, timeouts and interruption).
+    region: float = Field(0.0, ge=0, lt=1, description="volume share of the box taken by a hidden box over two "
+                          "design variables whose designs all fail (0.05 is 5 %); 0: none")
+    random: float = Field(0.0, ge=0, lt=1, description="probability that any design fails, drawn from its content "
+                          "hash (the same design always fails or always passes); 0: none")
+    seed: int = Field(0, ge=0, description="chooses the hidden region's two variables and its place")
+
+    @property
+    def any(self) -> bool:
+        return self.region > 0 or self.random > 0
+
+
+class AnalyticConfig(Section):
+    """``analytic:`` — an analytic problem in place of the blade: the whole loop, store, runner and CLI
+    without CFD (tests, benchmarks of the optimisers, cluster checks).
+
+    problem: pymoo's ZDT1–3 (Zitzler, Deb & Thiele 2000), DTLZ2 with two objectives (Deb et al. 2002),
+    or the constrained MW1, MW2, MW3, MW7 (Ma & Wang 2019), all on the unit box. variables: number of
+    design variables. delay: seconds each evaluation sleeps (to test parallel execution, timeouts and
+    interruption). failures: injected failures (:class:`InjectedFailures`).
     """
 
-    problem: Literal[tuple(ANALYTIC)] = Field("zdt1", description="the analytic problem (ANALYTIC): zdt1")
+    problem: Literal[tuple(ANALYTIC)] = Field("zdt1", description="the analytic problem: zdt1, zdt2, zdt3 and "
+                                              "dtlz2 (two objectives), or mw1, mw2, mw3, mw7 (two objectives with "
+                                              "their own constraints g1, g2 <= 0)")
     variables: int = Field(6, ge=2, le=100, description="number of design variables, each in [0, 1]")
     delay: float = Field(0.0, ge=0, description="seconds each evaluation sleeps (to test parallel execution, "
                          "timeouts and interruption), s", json_schema_extra={"unit": "s"})
+    failures: InjectedFailures = Field(InjectedFailures(), description="designs that fail as a CFD solve can "
+                                       "(a hidden region, random failures)")
 
 
 class CampaignConfig(Config):

@@ -15,7 +15,7 @@ The optimiser sees a problem, not a CFD code (STYLE.md §8). A :class:`CampaignP
   :data:`FAILED_VALUE`, so NSGA-II ranks it behind every feasible design but never stops on it.
 
 Constraint vector, in order: the geometric constraints (:func:`geometry.constraint_names`; none for the
-analytic problem), one per bound of the ``constraints:`` section (``(value - upper) / scale`` and
+analytic problem), the analytic problem's own (MW: g1, g2), one per bound of the ``constraints:`` section (``(value - upper) / scale`` and
 ``(lower - value) / scale``, ``scale`` = |bound| or 1 when the bound is 0), then ``evaluation``.
 """
 
@@ -97,6 +97,9 @@ class CampaignProblem:
     lower: np.ndarray
     upper: np.ndarray
     geometric_names: tuple[str, ...] = ()
+    #: Constraints the evaluated problem carries itself (the analytic MW problems' g1, g2), after the
+    #: geometric ones.
+    own_names: tuple[str, ...] = ()
 
     def __init__(self, config: CampaignConfig):
         self.config = config
@@ -115,7 +118,7 @@ class CampaignProblem:
     @cached_property
     def constraint_names(self) -> tuple[str, ...]:
         figure = [name for c in self.config.constraints for name in c.names]
-        return (*self.geometric_names, *figure, "evaluation")
+        return (*self.geometric_names, *self.own_names, *figure, "evaluation")
 
     def pymoo_problem(self):
         """A pymoo ``Problem`` with this shape; it never evaluates (the driver does, see the driver)."""
@@ -201,6 +204,7 @@ class CampaignProblem:
         constraints = dict(zip(self.geometric_names,
                                feasibility.values if feasibility is not None else (0.0,) * len(self.geometric_names),
                                strict=True))
+        constraints.update({n: float(values[n]) for n in self.own_names})
         for c in self.config.constraints:
             v = abs(float(values[c.figure])) if c.abs else float(values[c.figure])
             bounds = [("upper", c.upper), ("lower", c.lower)]
@@ -321,21 +325,30 @@ class BladeProblem(CampaignProblem):
 
 
 class AnalyticProblem(CampaignProblem):
-    """ZDT1 (Zitzler, Deb & Thiele 2000) on ``[0, 1]^n``; the Pareto front is f2 = 1 - sqrt(f1)."""
+    """One of pymoo's analytic problems (``analytic.problem``) on its box, with injected failures where the
+    configuration asks for them (see :class:`~optimizer.campaign.config.AnalyticConfig`)."""
 
     def __init__(self, config: CampaignConfig):
         super().__init__(config)
+        from optimizer.campaign.config import ANALYTIC_CONSTRAINTS
+        from optimizer.campaign.record import analytic_problem
+
         a = config.analytic
+        box = analytic_problem(a.problem, a.variables)
         self.names = tuple(f"x{i + 1}" for i in range(a.variables))
-        self.lower, self.upper = np.zeros(a.variables), np.ones(a.variables)
-        self._content = {"analytic": a.model_dump(mode="json", exclude={"delay"}), "version": self.version}
+        self.lower, self.upper = np.asarray(box.xl, float), np.asarray(box.xu, float)
+        self.own_names = ANALYTIC_CONSTRAINTS.get(a.problem, ())
+        # a campaign without injected failures keeps the keys it had before failures could be injected
+        content = a.model_dump(mode="json", exclude={"delay"} if a.failures.any else {"delay", "failures"})
+        self._content = {"analytic": content, "version": self.version}
 
     def key(self, x: np.ndarray) -> str:
         return content_key({**self._content, "x": [float(v) for v in x]})
 
     def payload(self, x: np.ndarray) -> dict:
         a = self.config.analytic
-        return {"kind": a.problem, "x": [float(v) for v in x], "delay": a.delay}
+        return {"kind": "analytic", "problem": a.problem, "x": [float(v) for v in x], "delay": a.delay,
+                "failures": a.failures.model_dump(mode="json")}
 
 
 def make_problem(config: CampaignConfig) -> CampaignProblem:

@@ -6,7 +6,8 @@ blade).
 
 * ``{"kind": "blade", "config": <resolved campaign YAML>, "parameters": {name: value}}`` — runs the
   evaluation pipeline (:func:`optimizer.pipeline.evaluate`) on that blade;
-* ``{"kind": "zdt1", "x": [...], "delay": s}`` — the analytic test problem;
+* ``{"kind": "analytic", "problem": name, "x": [...], "delay": s, "failures": {...}}`` — an analytic
+  test problem (pymoo's), with injected failures where asked;
 
 plus ``fields`` (optional, blades only: the absolute path of the design's fields file, on a file system
 the worker shares with the driver) and the runner's ``deadline_s`` (Unix time after which the runner has
@@ -35,11 +36,15 @@ BLAS/OpenMP threads are pinned to one in the worker: evaluations are parallel ac
 from __future__ import annotations
 
 import dataclasses
+import hashlib
+import json
 import math
 import time
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
+
+import numpy as np
 
 from optimizer.campaign.status import STAGE_FAILED, EvaluationStatus
 from solver.convergence import ConvergenceClass
@@ -259,23 +264,58 @@ def _num(v: Any) -> float | None:
 
 
 # ------------------------------------------------------------------------------------------ analytic
-def zdt1(x: list[float]) -> tuple[float, float]:
-    """ZDT1 (Zitzler, Deb & Thiele 2000): ``f1 = x1``, ``g = 1 + 9 mean(x2..xn)``,
-    ``f2 = g (1 - sqrt(f1 / g))``; Pareto front ``f2 = 1 - sqrt(f1)`` at ``x2..xn = 0``."""
-    f1 = float(x[0])
-    g = 1.0 + 9.0 * sum(x[1:]) / (len(x) - 1)
-    return f1, g * (1.0 - math.sqrt(f1 / g))
+def analytic_problem(name: str, variables: int):
+    """pymoo's problem ``name`` (two objectives) with ``variables`` design variables."""
+    from pymoo.problems import get_problem
+
+    return get_problem(name, n_var=variables, n_obj=2) if name == "dtlz2" else get_problem(name, n_var=variables)
 
 
-def evaluate_zdt1_payload(payload: dict) -> EvaluationRecord:
+def hidden_region(variables: int, share: float, seed: int) -> tuple[tuple[int, int], np.ndarray, np.ndarray]:
+    """The hidden failing box of :class:`~optimizer.campaign.config.InjectedFailures`: two distinct design
+    variables (chosen by ``seed``) and the box's lower and upper corners on them, each side ``sqrt(share)``
+    of the unit interval, placed at random inside it."""
+    rng = np.random.default_rng([seed, 7919])
+    i, j = (int(v) for v in rng.choice(variables, size=2, replace=False))
+    side = math.sqrt(share)
+    lower = rng.random(2) * (1.0 - side)
+    return (i, j), lower, lower + side
+
+
+def injected_failure(x: list[float], failures: Mapping[str, Any]) -> tuple[str, str] | None:
+    """``(status, reason)`` when design ``x`` is to fail under ``failures`` (the dump of
+    :class:`~optimizer.campaign.config.InjectedFailures`), else None."""
+    region, rate, seed = float(failures.get("region", 0)), float(failures.get("random", 0)), int(failures.get("seed", 0))
+    if region > 0:
+        (i, j), lower, upper = hidden_region(len(x), region, seed)
+        if lower[0] <= x[i] <= upper[0] and lower[1] <= x[j] <= upper[1]:
+            return "diverged", f"injected failure: the hidden region (x{i + 1}, x{j + 1})"
+    if rate > 0:
+        digest = hashlib.sha256(json.dumps([seed, [float(v) for v in x]]).encode()).digest()
+        if int.from_bytes(digest[:8], "big") / 2.0**64 < rate:
+            return "solve_failed", f"injected failure: random ({rate:.0%} of designs)"
+    return None
+
+
+def evaluate_analytic_payload(payload: dict) -> EvaluationRecord:
+    """One analytic design: ``{"kind": "analytic", "problem", "x", "delay", "failures"}``; figures f1, f2
+    and the problem's own constraints g1, g2 (G ≤ 0 feasible)."""
     t0 = time.perf_counter()
     if payload.get("delay"):
         time.sleep(float(payload["delay"]))
-    f1, f2 = zdt1(payload["x"])
-    return EvaluationRecord(SOLVED, "analytic", convergence=ConvergenceClass.CONVERGED,
-                            figures={"f1": f1, "f2": f2}, seconds={"total": time.perf_counter() - t0})
+    x = [float(v) for v in payload["x"]]
+    failure = injected_failure(x, payload.get("failures") or {})
+    if failure is not None:
+        return EvaluationRecord(failure[0], failure[1], seconds={"total": time.perf_counter() - t0})
+    problem = analytic_problem(payload["problem"], len(x))
+    out = problem.evaluate(np.array([x]), return_as_dictionary=True)
+    figures = {f"f{i + 1}": float(v) for i, v in enumerate(out["F"][0])}
+    if problem.n_ieq_constr:
+        figures.update({f"g{i + 1}": float(v) for i, v in enumerate(np.atleast_2d(out["G"])[0])})
+    return EvaluationRecord(SOLVED, "analytic", convergence=ConvergenceClass.CONVERGED, figures=figures,
+                            seconds={"total": time.perf_counter() - t0})
 
 
 #: Payload kinds and their handlers (STYLE.md §7: a registry keyed by a string).
 HANDLERS: dict[str, Callable[[dict], EvaluationRecord]] = {"blade": evaluate_blade_payload,
-                                                          "zdt1": evaluate_zdt1_payload}
+                                                          "analytic": evaluate_analytic_payload}

@@ -14,7 +14,7 @@ from optimizer.campaign.problem import (
     judge,
     make_problem,
 )
-from optimizer.campaign.record import blade_config, zdt1
+from optimizer.campaign.record import blade_config, evaluate_analytic_payload
 
 
 def campaign(tmp_path, text: str = "", *overrides: str):
@@ -150,5 +150,5 @@ def test_nearly_empty_space_is_a_clear_error(tmp_path):
 
 
 def test_zdt1_front():
-    f1, f2 = zdt1([0.25, 0, 0, 0])
-    assert (f1, f2) == (0.25, 0.5)                         # on the front f2 = 1 - sqrt(f1)
+    record = evaluate_analytic_payload({"kind": "analytic", "problem": "zdt1", "x": [0.25, 0, 0, 0]})
+    assert (record.figures["f1"], record.figures["f2"]) == (0.25, 0.5)      # on the front f2 = 1 - sqrt(f1)
