@@ -15,7 +15,8 @@ The optimiser sees a problem, not a CFD code (STYLE.md §8). A :class:`CampaignP
   :data:`FAILED_VALUE`, so NSGA-II ranks it behind every feasible design but never stops on it.
 
 Constraint vector, in order: the geometric constraints (:func:`geometry.constraint_names`; none for the
-analytic problem), the analytic problem's own (MW: g1, g2), one per bound of the ``constraints:`` section (``(value - upper) / scale`` and
+analytic problem), the analytic problem's own (MW: g1, g2),
+one per bound of the ``constraints:`` section (``(value - upper) / scale`` and
 ``(lower - value) / scale``, ``scale`` = |bound| or 1 when the bound is 0), then ``evaluation``.
 """
 

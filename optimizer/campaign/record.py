@@ -285,7 +285,8 @@ def hidden_region(variables: int, share: float, seed: int) -> tuple[tuple[int, i
 def injected_failure(x: list[float], failures: Mapping[str, Any]) -> tuple[str, str] | None:
     """``(status, reason)`` when design ``x`` is to fail under ``failures`` (the dump of
     :class:`~optimizer.campaign.config.InjectedFailures`), else None."""
-    region, rate, seed = float(failures.get("region", 0)), float(failures.get("random", 0)), int(failures.get("seed", 0))
+    region, rate = float(failures.get("region", 0)), float(failures.get("random", 0))
+    seed = int(failures.get("seed", 0))
     if region > 0:
         (i, j), lower, upper = hidden_region(len(x), region, seed)
         if lower[0] <= x[i] <= upper[0] and lower[1] <= x[j] <= upper[1]:
