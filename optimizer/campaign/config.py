@@ -17,8 +17,10 @@ A campaign file is a configuration file (``blade:``, ``mesh:``, ``flow:``, ``sol
     or ``fail``. A ``not_converged`` solve (drifting monitors) always fails. The class is judged on the
     monitors of the chosen objectives and constraints where they have one.
 ``algorithm:``
-    NSGA-II: ``population``, ``generations`` (including the initial one), ``offspring`` (default: the
-    population), ``seed``, ``crossover: {eta, prob}`` (pymoo SBX), ``mutation: {eta, prob}`` (pymoo PM;
+    ``method``: ``nsga2`` (plain) or ``surrogate`` (offspring chosen on models fitted from the store, with
+    its ``surrogate:`` settings); ``population``, ``generations`` (including the initial one),
+    ``offspring`` (designs sent to the CFD per generation; default: the population, a fifth of it with the
+    surrogate), ``seed``, ``crossover: {eta, prob}`` (pymoo SBX), ``mutation: {eta, prob}`` (pymoo PM;
     ``prob`` null: 1 / number of design variables), ``initial_draws`` (rejection-sampling budget per member
     of the feasible initial population).
 ``execution:``
@@ -59,7 +61,7 @@ from optimizer.yamlsource import Source
 
 __all__ = ["ANALYTIC", "ANALYTIC_CONSTRAINTS", "FIGURES", "MONITOR_OF", "AlgorithmConfig", "AnalyticConfig",
            "CampaignConfig", "ClusterOptions", "ConvergencePolicy", "Crossover", "ExecutionConfig", "FigureConstraint",
-           "InjectedFailures", "Mutation", "Objective", "OutputConfig", "check_campaign", "load_campaign",
+           "InjectedFailures", "METHODS", "Mutation", "Objective", "OutputConfig", "SurrogateSettings", "check_campaign", "load_campaign",
            "walltime_seconds"]
 
 #: Figures of :class:`optimizer.evaluate.Evaluation` that can be objectives or constraints, with units.
@@ -153,17 +155,50 @@ class Mutation(Section):
                                "1 / number of design variables")
 
 
-class AlgorithmConfig(Section):
-    """``algorithm:`` — NSGA-II settings (the paper: population 100, 50 generations)."""
+#: Search methods of ``algorithm.method``.
+METHODS = ("nsga2", "surrogate")
 
+
+class SurrogateSettings(Section):
+    """``algorithm.surrogate:`` — the surrogate-assisted search (used with ``method: surrogate``; the rule is
+    in :mod:`optimizer.campaign.infill`, the models in :mod:`optimizer.campaign.surrogate`)."""
+
+    pool: int = Field(50, ge=1, le=1000, description="candidates the search on the models draws per design sent "
+                      "to the CFD (the pool is pool × offspring; 10 to 50 is usual)")
+    exploration: float = Field(0.25, ge=0, le=1, description="share of each batch chosen where the models are "
+                               "uncertain (optimistic hypervolume improvement) rather than where they predict "
+                               "the most improvement")
+    training: int = Field(300, ge=10, le=5000, description="largest number of stored designs each model is fitted "
+                          "on (a Gaussian process costs O(n³)): those nearest the front")
+    failure_limit: float = Field(0.5, gt=0, le=1, description="candidates whose predicted probability of failing "
+                                 "(no mesh, diverged, unsettled, timeout) is above this are not sent")
+
+
+class AlgorithmConfig(Section):
+    """``algorithm:`` — the optimiser (the paper: NSGA-II, population 100, 50 generations)."""
+
+    method: Literal[METHODS] = Field("nsga2", description="nsga2: plain NSGA-II, every offspring to the CFD; "
+                                     "surrogate: NSGA-II whose offspring are chosen on Gaussian-process models "
+                                     "fitted from the store (a fifth of the CFD for the same front)")
     population: int = Field(100, ge=2, description="designs per generation")
     generations: int = Field(50, ge=1, description="generations, the initial one included")
-    offspring: int | None = Field(None, ge=1, description="new designs per generation; null: the population")
+    offspring: int | None = Field(None, ge=1, description="new designs sent to the CFD per generation (a multiple "
+                                  "of the workers keeps them busy); null: the population (nsga2), a fifth of it "
+                                  "rounded up (surrogate)")
+    surrogate: SurrogateSettings = Field(SurrogateSettings(), description="the surrogate-assisted search "
+                                         "(method surrogate)")
     seed: int = Field(1, ge=0, description="random seed: the same seed and configuration give the same campaign")
     crossover: Crossover = Field(Crossover(), description="pymoo SBX crossover")
     mutation: Mutation = Field(Mutation(), description="pymoo polynomial mutation")
     initial_draws: int = Field(1000, ge=1, description="rejection-sampling budget per member of the feasible "
                                "initial population")
+
+    @property
+    def batch(self) -> int:
+        """New designs sent to the CFD per generation (``offspring`` resolved)."""
+        if self.offspring is not None:
+            return self.offspring
+        return self.population if self.method == "nsga2" else -(-self.population // 5)
 
 
 class OutputConfig(Section):

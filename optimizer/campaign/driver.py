@@ -3,7 +3,9 @@ every result stored the moment it arrives, resumable from the store alone.
 
 One generation::
 
-    offspring = algorithm.ask()                       # SBX + PM from the population (seeded)
+    offspring = ask()                                 # SBX + PM from the population (seeded), redrawn until
+                                                      # geometrically feasible; or the surrogate's batch
+                                                      # (optimizer.campaign.offspring)
     for each design: key = content hash               # parameters, mesh, flow, solver, version
         stored already?          -> its stored values (never evaluated twice)
         geometrically infeasible -> stored as "infeasible" with the violated constraints, never meshed
@@ -35,6 +37,7 @@ import numpy as np
 
 from optimizer.campaign.config import CampaignConfig
 from optimizer.campaign.fields import prune_fields, with_fields
+from optimizer.campaign.offspring import make_offspring
 from optimizer.campaign.problem import Assessment, CampaignProblem, Feasibility, initial_population, make_problem
 from optimizer.campaign.record import EvaluationRecord
 from optimizer.campaign.status import EvaluationStatus
@@ -56,7 +59,8 @@ class GenerationProgress:
     handed to the runner. done: finished with usable values. failed: finished without (any status but
     ``ok`` and ``infeasible``). workers: the runner's workers. best: ``{objective label: best value}``
     over the run so far. hypervolume: of the population's feasible front after the previous generation.
-    eta_s: estimated seconds to the end of the campaign (None while unknown).
+    eta_s: estimated seconds to the end of the campaign (None while unknown). search: how the offspring
+    were found (:mod:`optimizer.campaign.offspring`; the models' error once the generation is finished).
     """
 
     generation: int
@@ -73,6 +77,7 @@ class GenerationProgress:
     feasible_share: float | None = None
     eta_s: float | None = None
     finished: bool = False
+    search: dict | None = None
 
     @property
     def running(self) -> int:
@@ -206,6 +211,7 @@ class _Loop:
         self.progress, self.log = progress, log
         self.pymoo = problem.pymoo_problem()
         self.algorithm_config = config.algorithm
+        self.offspring = make_offspring(problem, config, store)
         self.generation_seconds: list[float] = []
         self.evaluation_seconds: list[float] = []
         self.best: dict[str, float] = {}
@@ -219,9 +225,10 @@ class _Loop:
         from pymoo.operators.mutation.pm import PM
 
         a = self.algorithm_config
-        algorithm = NSGA2(pop_size=a.population, n_offsprings=a.offspring or a.population, sampling=sampling,
+        algorithm = NSGA2(pop_size=a.population, n_offsprings=a.batch, sampling=sampling,
                           crossover=SBX(eta=a.crossover.eta, prob=a.crossover.prob),
-                          mutation=PM(eta=a.mutation.eta, prob_var=a.mutation.prob), eliminate_duplicates=True)
+                          mutation=PM(eta=a.mutation.eta, prob_var=a.mutation.prob),
+                          eliminate_duplicates=self.offspring.eliminate_duplicates())
         algorithm.setup(self.pymoo, seed=a.seed, termination=_NO_TERMINATION, verbose=False)
         return algorithm
 
@@ -268,20 +275,20 @@ class _Loop:
         algorithm, start = self._start()
         for g in range(start, self.algorithm_config.generations):
             t0 = time.perf_counter()
-            offspring = algorithm.ask()
+            offspring, search = self.offspring.ask(algorithm, g)
             if offspring is None or len(offspring) == 0:    # duplicates left no new design: nothing to do
                 break
-            rows, counts = self._evaluate(offspring.get("X"), g)
+            rows, counts = self._evaluate(offspring.get("X"), g, search)
             self._set_values(offspring, rows)
             algorithm.tell(infills=offspring)
             self.generation_seconds.append(time.perf_counter() - t0)
-            self._store_generation(algorithm, g, rows, counts)
+            self._store_generation(algorithm, g, rows, counts, self.offspring.review(search, rows))
 
-    def _evaluate(self, X: np.ndarray, g: int) -> tuple[list[EvaluationRow], dict]:
+    def _evaluate(self, X: np.ndarray, g: int, search: dict | None = None) -> tuple[list[EvaluationRow], dict]:
         """One row per design of ``X`` (in order): stored, infeasible, or evaluated now."""
         keys = [self.problem.key(x) for x in X]
         known = self.store.get_many(keys)
-        state = GenerationProgress(g, self.algorithm_config.generations, total=len(X),
+        state = GenerationProgress(g, self.algorithm_config.generations, total=len(X), search=search,
                                    cached=sum(1 for k in keys if k in known and known[k].generation < g),
                                    workers=getattr(self.runner, "workers", 0) or 0, **self._summary())
         feasibility: dict[str, Feasibility] = {}
@@ -348,7 +355,8 @@ class _Loop:
             worker=None if result is None else result.worker, submitted=submitted)
 
     # ------------------------------------------------------------------------------- generation
-    def _store_generation(self, algorithm, g: int, rows: list[EvaluationRow], counts: dict) -> None:
+    def _store_generation(self, algorithm, g: int, rows: list[EvaluationRow], counts: dict,
+                          search: dict | None = None) -> None:
         pop = algorithm.pop
         X = pop.get("X")
         members = [self.problem.key(x) for x in X]
@@ -357,12 +365,13 @@ class _Loop:
             generation=g, members=members, rank=[_maybe(int, r) for r in pop.get("rank")],
             crowding=[_maybe(float, c) for c in pop.get("crowding")], offspring=[r.key for r in rows],
             feasible_offspring=counts["feasible"], feasible_share=counts["feasible"] / len(rows) if rows else None,
-            cache_hits=counts["cached"], hypervolume=hv, rng_state=algorithm.random_state.bit_generator.state))
+            cache_hits=counts["cached"], hypervolume=hv, rng_state=algorithm.random_state.bit_generator.state,
+            search=search))
         prune_fields(self.store)      # fields files are kept for the front's designs only
         state = GenerationProgress(g, self.algorithm_config.generations, total=len(rows), cached=counts["cached"],
                                    infeasible=len(rows) - counts["feasible"], finished=True,
                                    workers=getattr(self.runner, "workers", 0) or 0, **self._summary(),
-                                   feasible_share=counts["feasible"] / len(rows) if rows else None)
+                                   feasible_share=counts["feasible"] / len(rows) if rows else None, search=search)
         state.hypervolume = hv
         by_status = self.store.count_by_status(g)
         state.done = by_status.get(EvaluationStatus.OK, 0)
@@ -424,7 +433,7 @@ class _Loop:
         if self.generation_seconds:
             per_generation = float(np.mean(self.generation_seconds))
         else:
-            per_generation = per * (self.algorithm_config.offspring or self.algorithm_config.population)
+            per_generation = per * self.algorithm_config.batch
         return per * remaining_tasks + per_generation * max(after, 0)
 
 

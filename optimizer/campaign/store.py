@@ -19,7 +19,9 @@ Tables (the full reference with every column is in ``docs/explanation/campaigns.
     one row per finished generation: the population members' keys in order with their NSGA-II rank and
     crowding distance, the offspring keys, the feasible share of offspring, cache hits, hypervolume and
     the optimiser's random state after the generation (JSON) — what :mod:`optimizer.campaign.driver`
-    needs to continue exactly where an uninterrupted run would be.
+    needs to continue exactly where an uninterrupted run would be — and ``search``: how the generation's
+    offspring were found (candidates drawn and geometrically feasible; with the surrogate, the models'
+    hyperparameters, predictions for the batch and their out-of-sample error, fit and screen seconds).
 
 Values are JSON text where they are structured; floats round-trip exactly (``repr``). Non-finite floats
 are stored as the strings ``"inf"``, ``"-inf"``, ``"nan"`` so that any JSON reader can read the columns.
@@ -44,7 +46,10 @@ from solver.convergence import ConvergenceClass
 #: File name of the store in the run directory.
 STORE_NAME = "campaign.sqlite"
 #: Schema version written in ``PRAGMA user_version``; bump on any change of the tables.
-SCHEMA_VERSION = 1
+SCHEMA_VERSION = 2
+#: Columns added after the first schema, with their SQL type: a store written by an earlier millfoil gains
+#: them (empty) when the driver opens it.
+_ADDED_COLUMNS = {"generations": {"search": "TEXT"}}
 
 #: Campaign states.
 STATES = ("running", "finished", "interrupted", "failed")
@@ -94,7 +99,8 @@ CREATE TABLE IF NOT EXISTS generations (
     cache_hits INTEGER NOT NULL,
     hypervolume REAL,
     rng_state TEXT NOT NULL,
-    finished TEXT NOT NULL
+    finished TEXT NOT NULL,
+    search TEXT
 );
 """
 
@@ -199,6 +205,7 @@ class GenerationRow:
     hypervolume: float | None
     rng_state: dict
     finished: str = field(default_factory=now)
+    search: dict | None = None
 
 
 @dataclass(frozen=True)
@@ -239,10 +246,15 @@ class Store:
                 raise ValueError(f"sync must be 'full' or 'normal', got {sync!r}")
             self._db.execute(f"PRAGMA synchronous={sync.upper()}")
             version = self._db.execute("PRAGMA user_version").fetchone()[0]
-            if version not in (0, SCHEMA_VERSION):
-                raise RuntimeError(f"{self.path}: store schema {version}, this millfoil reads {SCHEMA_VERSION}")
+            if version > SCHEMA_VERSION:
+                raise RuntimeError(f"{self.path}: store schema {version}, this millfoil reads up to {SCHEMA_VERSION}")
             with self._db:
                 self._db.executescript(_SCHEMA)
+                for table, columns in _ADDED_COLUMNS.items():
+                    have = {r[1] for r in self._db.execute(f"PRAGMA table_info({table})")}
+                    for name, kind in columns.items():
+                        if name not in have:
+                            self._db.execute(f"ALTER TABLE {table} ADD COLUMN {name} {kind}")
                 self._db.execute(f"PRAGMA user_version={SCHEMA_VERSION}")
         self._db.row_factory = sqlite3.Row
         self.readonly = readonly
@@ -351,10 +363,10 @@ class Store:
         with self._db:
             self._db.execute(
                 "INSERT INTO generations (generation, members, rank, crowding, offspring, feasible_offspring, "
-                "feasible_share, cache_hits, hypervolume, rng_state, finished) VALUES (?,?,?,?,?,?,?,?,?,?,?)",
+                "feasible_share, cache_hits, hypervolume, rng_state, finished, search) VALUES (?,?,?,?,?,?,?,?,?,?,?,?)",
                 (row.generation, dumps(row.members), dumps(row.rank), dumps(row.crowding), dumps(row.offspring),
                  row.feasible_offspring, row.feasible_share, row.cache_hits, row.hypervolume,
-                 json.dumps(row.rng_state), row.finished))
+                 json.dumps(row.rng_state), row.finished, None if row.search is None else dumps(row.search)))
 
     def generations(self) -> list[GenerationRow]:
         return [_generation(r) for r in self._db.execute("SELECT * FROM generations ORDER BY generation")]
@@ -390,4 +402,5 @@ def _generation(r: sqlite3.Row) -> GenerationRow:
         generation=r["generation"], members=loads(r["members"]), rank=loads(r["rank"]),
         crowding=loads(r["crowding"]), offspring=loads(r["offspring"]), feasible_offspring=r["feasible_offspring"],
         feasible_share=r["feasible_share"], cache_hits=r["cache_hits"], hypervolume=r["hypervolume"],
-        rng_state=json.loads(r["rng_state"]), finished=r["finished"])
+        rng_state=json.loads(r["rng_state"]), finished=r["finished"],
+        search=loads(r["search"]) if "search" in r.keys() else None)

@@ -116,9 +116,11 @@ def run_check(args: argparse.Namespace) -> int:
     print(f"  oscillating results: {config.convergence.oscillating}"
           + (f" (amplitude <= {config.convergence.max_amplitude:.2%} of the mean)"
              if config.convergence.oscillating == "accept_below_amplitude" else ""))
-    print(f"  NSGA-II: population {a.population}, {a.generations} generations, offspring "
-          f"{a.offspring or a.population}, seed {a.seed}: at most "
-          f"{a.population + (a.generations - 1) * (a.offspring or a.population)} evaluations")
+    method = "NSGA-II" if a.method == "nsga2" else (
+        f"surrogate-assisted NSGA-II (pool {a.surrogate.pool} per design, exploration {a.surrogate.exploration:.0%}, "
+        f"models on at most {a.surrogate.training} designs)")
+    print(f"  {method}: population {a.population}, {a.generations} generations, offspring "
+          f"{a.batch}, seed {a.seed}: at most {a.population + (a.generations - 1) * a.batch} evaluations")
     print(f"  execution: {config.execution.backend}; run directory {config.output.directory}")
     print("\n# resolved campaign")
     print(config.to_yaml(), end="")

@@ -77,7 +77,7 @@ def test_malformed_config_names_key_file_and_line(tmp_path, name, text, key, lin
 def test_unknown_key_lists_the_allowed_ones(tmp_path):
     path = tmp_path / "c.yaml"
     path.write_text("algorithm:\n  pop: 10\n")
-    with pytest.raises(ConfigError, match="allowed: population, generations, offspring, seed"):
+    with pytest.raises(ConfigError, match="allowed: method, population, generations, offspring, surrogate, seed"):
         load_campaign(path)
 
 

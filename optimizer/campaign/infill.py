@@ -1,0 +1,248 @@
+"""Which designs the CFD sees in a surrogate-assisted generation: a pool searched on the models, a batch
+chosen from it by predicted hypervolume improvement.
+
+The rule (the reasoning and its evidence: ``docs/decisions/0017-surrogate-infill.md``):
+
+1. **Pool.** NSGA-II runs on the models for a few generations, starting from the campaign's population,
+   with the campaign's own operators (SBX, PM): ``pool × batch`` candidates in all. Every candidate first
+   meets the **cheap geometric constraints exactly** (:meth:`CampaignProblem.prescreen` and
+   :meth:`~CampaignProblem.check`, milliseconds each): an infeasible one is never ranked by a model and
+   never sent. The models rank the rest: predicted objectives, predicted CFD constraints, and the
+   predicted probability of failure as a constraint ``p_fail ≤ failure_limit``.
+2. **Exploitation** (``batch − exploration·batch`` designs): greedily, the candidate whose predicted
+   objectives add the most hypervolume to the run's front, the front then taking that prediction as
+   if it were computed (the "believer" step of batch Bayesian optimisation), until the share is filled or
+   nothing improves.
+3. **Exploration** (the rest): the same greedy step on the *optimistic* point ``mean − κ·std`` (κ = 2):
+   designs whose uncertainty could put them on the front, which is where the models learn most.
+4. Slots still empty take the predicted-feasible candidates farthest from every design chosen or
+   evaluated (space filling), so a generation always sends a full batch.
+
+Hypervolume is measured in objectives normalised by the run's front (ideal 0, nadir 1, reference 1.1).
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from optimizer.campaign.surrogate import Models, Prediction
+
+#: Optimism of the exploration share: the optimistic point is ``mean − KAPPA·std``.
+KAPPA = 2.0
+
+
+@dataclass
+class Proposal:
+    """A batch for the CFD. X: ``(batch, d)``; roles: ``exploit``/``explore``/``fill`` per design;
+    prediction: the models' output for ``X``; drawn: candidates the search drew; screened: of those, the
+    geometrically feasible (modelled) ones; seconds: ``{"fit", "screen"}``."""
+
+    X: np.ndarray
+    roles: list[str]
+    prediction: Prediction
+    drawn: int
+    screened: int
+    seconds: dict[str, float] = field(default_factory=dict)
+
+
+# -------------------------------------------------------------------------------------- hypervolume
+def hypervolume_improvement(front: np.ndarray, points: np.ndarray, reference: np.ndarray) -> np.ndarray:
+    """``(n,)`` hypervolume each of ``points (n, m)`` would add to ``front (k, m)`` (minimisation, against
+    ``reference``). Exact and vectorised for two objectives; pymoo's HV per point for more."""
+    points = np.atleast_2d(points)
+    inside = np.all(points < reference, axis=1)
+    out = np.zeros(len(points))
+    if not inside.any():
+        return out
+    front = front[np.all(front < reference, axis=1)] if len(front) else front.reshape(0, points.shape[1])
+    if points.shape[1] == 2:
+        out[inside] = _improvement_2d(front, points[inside], reference)
+        return out
+    from pymoo.indicators.hv import HV
+
+    hv = HV(ref_point=reference)
+    base = hv(front) if len(front) else 0.0
+    for i in np.flatnonzero(inside):
+        out[i] = hv(np.vstack([front, points[i]])) - base
+    return out
+
+
+def _improvement_2d(front: np.ndarray, points: np.ndarray, reference: np.ndarray) -> np.ndarray:
+    """Two objectives: the area under ``reference`` that a point dominates and the front does not. The
+    front's attainment surface is a staircase: on ``[b_i, b_{i+1})`` (front f1 values sorted) it stands at
+    the lowest f2 of the points with f1 ≤ b_i."""
+    if len(front) == 0:
+        return np.prod(reference - points, axis=1)
+    order = np.argsort(front[:, 0], kind="stable")
+    edges = np.append(front[order, 0], reference[0])
+    level = np.minimum.accumulate(front[order, 1])
+    starts = np.concatenate([[-np.inf], edges[:-1]])
+    ends = edges
+    levels = np.concatenate([[reference[1]], np.minimum(level, reference[1])])
+    lo = np.maximum(starts[None, :], points[:, :1])
+    hi = np.minimum(ends[None, :], reference[0])
+    width = np.clip(hi - lo, 0.0, None)
+    height = np.clip(levels[None, :] - points[:, 1:2], 0.0, None)
+    return (width * height).sum(axis=1)
+
+
+# ------------------------------------------------------------------------------------------- choice
+def choose(prediction: Prediction, front: np.ndarray, batch: int, exploration: float, failure_limit: float,
+           X: np.ndarray, evaluated: np.ndarray) -> tuple[np.ndarray, list[str]]:
+    """Indices into the pool (rows of ``X``, scaled to the unit box) and their roles (module docstring).
+
+    front: ``(k, m)`` minimised objectives of the run's feasible non-dominated designs; evaluated:
+    ``(e, d)`` scaled design vectors already evaluated (never chosen again)."""
+    n = len(X)
+    if n == 0:
+        return np.zeros(0, int), []
+    lo, hi = _normalisation(front, prediction.mean)
+    mean = (prediction.mean - lo) / (hi - lo)
+    optimistic = (prediction.mean - KAPPA * prediction.std - lo) / (hi - lo)
+    believed = (front - lo) / (hi - lo) if len(front) else np.zeros((0, mean.shape[1]))
+    reference = np.full(mean.shape[1], 1.1)
+    safe = prediction.p_fail <= failure_limit
+    feasible = safe & np.all(prediction.g_mean <= 0.0, axis=1)
+    hopeful = safe & np.all(prediction.g_mean - KAPPA * prediction.g_std <= 0.0, axis=1)
+    available = ~_near(X, evaluated)
+    chosen: list[int] = []
+    roles: list[str] = []
+    n_explore = int(round(exploration * batch))
+    for role, points, allowed, slots in (("exploit", mean, feasible, batch - n_explore),
+                                         ("explore", optimistic, hopeful, n_explore)):
+        for _ in range(slots):
+            candidates = np.flatnonzero(available & allowed)
+            if len(candidates) == 0:
+                break
+            gain = hypervolume_improvement(believed, points[candidates], reference)
+            if gain.max() <= 0.0:
+                break
+            pick = int(candidates[int(np.argmax(gain))])
+            chosen.append(pick)
+            roles.append(role)
+            believed = np.vstack([believed, mean[pick]])
+            available &= ~_near(X, X[pick][None])
+    # empty slots: space filling among the predicted-feasible candidates (any candidate when none is)
+    while len(chosen) < batch:
+        candidates = np.flatnonzero(available & feasible) if (available & feasible).any() else np.flatnonzero(available)
+        if len(candidates) == 0:
+            break
+        taken = np.vstack([evaluated, X[chosen]]) if chosen else evaluated
+        distance = _min_distance(X[candidates], taken)
+        pick = int(candidates[int(np.argmax(distance))])
+        chosen.append(pick)
+        roles.append("fill")
+        available &= ~_near(X, X[pick][None])
+    return np.array(chosen, int), roles
+
+
+def _normalisation(front: np.ndarray, mean: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Ideal and nadir of the front (of the predictions while the run has no feasible design)."""
+    base = front if len(front) else mean
+    lo, hi = base.min(axis=0), base.max(axis=0)
+    span = np.where(hi > lo, hi - lo, np.maximum(np.abs(hi), 1.0))
+    return lo, lo + span
+
+
+def _near(X: np.ndarray, Y: np.ndarray, tolerance: float = 1e-9) -> np.ndarray:
+    """``(len(X),)`` bool: rows of ``X`` within ``tolerance`` (max norm, unit box) of a row of ``Y``."""
+    if len(Y) == 0:
+        return np.zeros(len(X), bool)
+    near = np.zeros(len(X), bool)
+    for i in range(0, len(Y), 512):
+        near |= (np.abs(X[:, None, :] - Y[None, i:i + 512, :]).max(axis=2) <= tolerance).any(axis=1)
+    return near
+
+
+def _min_distance(X: np.ndarray, Y: np.ndarray) -> np.ndarray:
+    if len(Y) == 0:
+        return np.full(len(X), np.inf)
+    out = np.full(len(X), np.inf)
+    for i in range(0, len(Y), 512):
+        d = np.sqrt(((X[:, None, :] - Y[None, i:i + 512, :]) ** 2).sum(axis=2))
+        out = np.minimum(out, d.min(axis=1))
+    return out
+
+
+# --------------------------------------------------------------------------------------------- pool
+class _ModelProblem:
+    """The pymoo problem the inner NSGA-II optimises: predicted objectives; constraints: geometric
+    feasibility (exact), the predicted CFD constraints, ``p_fail − failure_limit``. Keeps every candidate
+    it is asked about (after the starting population) as the pool."""
+
+    def __init__(self, problem, models: Models, failure_limit: float, feasible: Callable[[np.ndarray], np.ndarray]):
+        from pymoo.core.problem import Problem
+
+        outer = self
+
+        class _Inner(Problem):
+            def _evaluate(self, X, out, *args, **kwargs):
+                outer._evaluate(X, out)
+
+        k = len(models.constraints)
+        self.inner = _Inner(n_var=problem.n_var, n_obj=len(models.objectives), n_ieq_constr=1 + k + 1,
+                            xl=problem.lower, xu=problem.upper)
+        self.models, self.failure_limit, self.feasible = models, failure_limit, feasible
+        self.started = False
+        self.drawn = 0
+        self.pool_X: list[np.ndarray] = []
+
+    def _evaluate(self, X: np.ndarray, out: dict) -> None:
+        ok = self.feasible(X)
+        prediction = self.models.predict(X)
+        out["F"] = prediction.mean
+        out["G"] = np.column_stack([np.where(ok, -1.0, 1.0), prediction.g_mean,
+                                    prediction.p_fail - self.failure_limit])
+        if self.started:
+            self.drawn += len(X)
+            self.pool_X.append(X[ok])
+        self.started = True
+
+
+def propose(problem, models: Models, population_X: np.ndarray, *, batch: int, pool: int, exploration: float,
+            failure_limit: float, front: np.ndarray, evaluated_X: np.ndarray, seed: int, crossover, mutation,
+            population_size: int) -> Proposal:
+    """The batch of one surrogate-assisted generation (module docstring).
+
+    problem: the :class:`CampaignProblem`; models: fitted on the store; population_X: the campaign's
+    population (the inner search starts there); front: minimised objectives of the run's feasible
+    non-dominated designs; evaluated_X: every design already evaluated; seed: of the inner search;
+    crossover, mutation: the campaign's settings (``eta``, ``prob``)."""
+    from pymoo.algorithms.moo.nsga2 import NSGA2
+    from pymoo.operators.crossover.sbx import SBX
+    from pymoo.operators.mutation.pm import PM
+    from pymoo.optimize import minimize
+
+    t0 = time.perf_counter()
+    cache: dict[bytes, bool] = {}
+
+    def feasible(X: np.ndarray) -> np.ndarray:
+        ok = np.zeros(len(X), bool)
+        todo = [i for i, x in enumerate(X) if x.tobytes() not in cache]
+        if todo:
+            screened = problem.prescreen(X[todo])
+            for i, s in zip(todo, screened, strict=True):
+                cache[X[i].tobytes()] = bool(s) and problem.check(X[i]).feasible
+        for i, x in enumerate(X):
+            ok[i] = cache[x.tobytes()]
+        return ok
+
+    inner = _ModelProblem(problem, models, failure_limit, feasible)
+    generations = max(1, int(np.ceil(pool * batch / population_size)))
+    algorithm = NSGA2(pop_size=population_size, sampling=np.asarray(population_X, float),
+                      crossover=SBX(eta=crossover.eta, prob=crossover.prob),
+                      mutation=PM(eta=mutation.eta, prob_var=mutation.prob), eliminate_duplicates=True)
+    minimize(inner.inner, algorithm, ("n_gen", generations + 1), seed=seed, verbose=False)
+    pool_X = np.vstack(inner.pool_X) if inner.pool_X else np.zeros((0, problem.n_var))
+    pool_X = np.unique(pool_X, axis=0)
+    prediction = models.predict(pool_X)
+    scaled = models.scale(pool_X)
+    index, roles = choose(prediction, front, batch, exploration, failure_limit, scaled,
+                          models.scale(evaluated_X) if len(evaluated_X) else np.zeros((0, problem.n_var)))
+    chosen = Prediction(*(getattr(prediction, f)[index] for f in ("mean", "std", "g_mean", "g_std", "p_fail")))
+    return Proposal(pool_X[index], roles, chosen, inner.drawn, len(pool_X),
+                    {"screen": time.perf_counter() - t0})

@@ -1,0 +1,193 @@
+"""Where a generation's offspring come from: plain NSGA-II mating, or the surrogate-assisted search.
+
+Both send only **geometrically feasible** designs to the CFD. Plain mode redraws an offspring that fails
+a cheap constraint (Eq. 21, Eq. 22, self-crossing, a tool path that machines into pieces): the check runs
+inside pymoo's mating loop, beside its duplicate elimination, so the operators draw again until the
+generation is full (pymoo's mating gives up after 100 rounds; a generation then has fewer offspring).
+The surrogate mode (:mod:`optimizer.campaign.infill`) checks its whole candidate pool the same way.
+
+Each step returns the offspring and a ``search`` record stored with the generation::
+
+    method     "nsga2" or "surrogate"
+    drawn      candidates drawn by the operators (plain: the mating; surrogate: the search on the models)
+    screened   of those, the geometrically feasible ones
+    batch      designs sent to the CFD
+  surrogate only:
+    training   designs the regressions were fitted on; theta: {model: log-hyperparameters}
+    predicted  {key: {"mean": [...], "std": [...], "p_fail": p, "role": exploit|explore|fill}}
+    error      after the batch is evaluated: {objective label: RMSE / standard deviation of the training
+               values} over the batch's designs with values (out of sample: none was in the training set)
+    failures   {"predicted": mean p_fail, "observed": share of the batch without values}
+    seconds    {"fit", "screen"}
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Sequence
+
+import numpy as np
+
+from optimizer.campaign.status import EvaluationStatus
+from optimizer.campaign.store import EvaluationRow, Store
+
+
+class FeasibleOffspring:
+    """pymoo's duplicate elimination followed by the problem's exact geometric check: the mating loop
+    keeps drawing until it has enough offspring that pass both. Counts what it was shown."""
+
+    def __init__(self, problem):
+        from pymoo.core.duplicate import DefaultDuplicateElimination
+
+        self.problem = problem
+        self.duplicates = DefaultDuplicateElimination()
+        self.drawn = self.screened = 0
+
+    def do(self, pop, *args, **kwargs):
+        pop = self.duplicates.do(pop, *args, **kwargs)
+        if kwargs.get("return_indices") or len(pop) == 0:
+            return pop
+        X = pop.get("X")
+        ok = self.problem.prescreen(X)
+        ok = np.array([bool(s) and self.problem.check(x).feasible for s, x in zip(ok, X, strict=True)], bool)
+        self.drawn += len(X)
+        self.screened += int(ok.sum())
+        return pop[ok]
+
+
+class PlainOffspring:
+    """NSGA-II's own offspring, redrawn until geometrically feasible."""
+
+    method = "nsga2"
+
+    def __init__(self, problem):
+        self.filter = FeasibleOffspring(problem)
+
+    def eliminate_duplicates(self):
+        return self.filter
+
+    def ask(self, algorithm, g: int):
+        self.filter.drawn = self.filter.screened = 0
+        offspring = algorithm.ask()
+        n = 0 if offspring is None else len(offspring)
+        return offspring, {"method": self.method, "drawn": self.filter.drawn, "screened": self.filter.screened,
+                           "batch": n}
+
+    def review(self, search: dict, rows: Sequence[EvaluationRow]) -> dict:
+        return search
+
+
+class SurrogateOffspring(PlainOffspring):
+    """Offspring chosen by :func:`optimizer.campaign.infill.propose` on models fitted from the store."""
+
+    method = "surrogate"
+
+    def __init__(self, problem, config, store: Store):
+        super().__init__(problem)
+        self.problem, self.config, self.store = problem, config, store
+        self.modelled = [n for n in problem.constraint_names[len(problem.geometric_names):] if n != "evaluation"]
+
+    def ask(self, algorithm, g: int):
+        if not algorithm.is_initialized:           # the initial population: drawn as in plain mode
+            return super().ask(algorithm, g)
+        from pymoo.core.population import Population
+
+        from optimizer.campaign.infill import propose
+        from optimizer.campaign.surrogate import Models
+
+        a = self.config.algorithm
+        t0 = time.perf_counter()
+        data, front, evaluated = training_data(self.store, self.problem, g, self.modelled)
+        last = self.store.last_generation()
+        theta = (last.search or {}).get("theta") if last is not None else None
+        models = Models(self.problem.lower, self.problem.upper, self.problem.objective_labels, self.modelled)
+        models.fit(data, a.surrogate.training, theta)
+        fit_seconds = time.perf_counter() - t0
+        proposal = propose(self.problem, models, algorithm.pop.get("X"), batch=a.batch, pool=a.surrogate.pool,
+                           exploration=a.surrogate.exploration, failure_limit=a.surrogate.failure_limit,
+                           front=front, evaluated_X=evaluated, seed=_seed(a.seed, g), crossover=a.crossover,
+                           mutation=a.mutation, population_size=a.population)
+        p = proposal.prediction
+        predicted = {}
+        for i, x in enumerate(proposal.X):
+            predicted[self.problem.key(x)] = {"mean": [float(v) for v in p.mean[i]], "std": [float(v) for v in p.std[i]],
+                                              "p_fail": float(p.p_fail[i]), "role": proposal.roles[i]}
+        search = {"method": self.method, "drawn": proposal.drawn, "screened": proposal.screened,
+                  "batch": len(proposal.X), "training": models.training_size, "theta": models.theta(),
+                  "predicted": predicted, "scale": _training_scale(data),
+                  "seconds": {"fit": fit_seconds, "screen": proposal.seconds["screen"]}}
+        return Population.new("X", proposal.X), search
+
+    def review(self, search: dict, rows: Sequence[EvaluationRow]) -> dict:
+        """Add the out-of-sample error of the models on the batch just evaluated (see the module docstring)."""
+        predicted = search.get("predicted")
+        if not predicted:
+            return search
+        batch = [r for r in rows if r.key in predicted]
+        ok = [r for r in batch if r.ok]
+        scale = search.get("scale") or []
+        error = {}
+        for i, label in enumerate(self.problem.objective_labels):
+            if ok and i < len(scale) and scale[i] > 0:
+                residual = [predicted[r.key]["mean"][i] - r.minimised[i] for r in ok]
+                error[label] = float(np.sqrt(np.mean(np.square(residual))) / scale[i])
+        failures = {"predicted": float(np.mean([predicted[r.key]["p_fail"] for r in batch])) if batch else None,
+                    "observed": (len(batch) - len(ok)) / len(batch) if batch else None}
+        return {**search, "error": error, "failures": failures}
+
+
+def make_offspring(problem, config, store: Store) -> PlainOffspring:
+    """The offspring step of ``config.algorithm.method``."""
+    if config.algorithm.method == "surrogate":
+        return SurrogateOffspring(problem, config, store)
+    return PlainOffspring(problem)
+
+
+def training_data(store: Store, problem, generation: int, modelled: Sequence[str]):
+    """What the models learn from: every design that reached a worker before ``generation`` (rows in the
+    deterministic order generation, key — the store's own order depends on which worker finished first).
+    Returns the :class:`~optimizer.campaign.surrogate.TrainingData`, the minimised objectives of the run's
+    feasible non-dominated designs, and every evaluated design vector (infeasible ones included)."""
+    from pymoo.util.nds.non_dominated_sorting import NonDominatedSorting
+
+    from optimizer.campaign.surrogate import TrainingData
+
+    rows = sorted((r for r in store.evaluations() if r.generation < generation), key=lambda r: (r.generation, r.key))
+    evaluated = np.array([r.x for r in rows], float).reshape(len(rows), problem.n_var)
+    reached = [r for r in rows if r.status != EvaluationStatus.INFEASIBLE]
+    m = len(problem.objective_labels)
+    X = np.array([r.x for r in reached], float).reshape(len(reached), problem.n_var)
+    failed = np.array([not r.ok for r in reached], bool)
+    F = np.array([r.minimised if r.ok else [np.nan] * m for r in reached], float).reshape(len(reached), m)
+    G = np.array([[r.constraints.get(n, np.nan) if r.ok else np.nan for n in modelled] for r in reached],
+                 float).reshape(len(reached), len(modelled))
+    rank = np.full(len(reached), 10**6, float)
+    violation = np.array([sum(max(v, 0.0) for v in r.constraints.values()) for r in reached], float)
+    good = ~failed & (violation <= 0.0)
+    if good.any():
+        rank[good] = _ranks(F[good], NonDominatedSorting())
+    bad = ~failed & ~good
+    if bad.any():
+        rank[bad] = 10**5 + violation[bad] / max(violation[bad].max(), 1e-300)
+    front = F[good][_ranks(F[good], NonDominatedSorting()) == 0] if good.any() else np.zeros((0, m))
+    data = TrainingData(X, failed, F, G, rank, np.arange(len(reached), dtype=float))
+    return data, front, evaluated
+
+
+def _ranks(F: np.ndarray, sorter) -> np.ndarray:
+    rank = np.empty(len(F))
+    for r, front in enumerate(sorter.do(F)):
+        rank[front] = r
+    return rank
+
+
+def _training_scale(data) -> list[float]:
+    """Standard deviation of each objective over the designs with values (the error's unit)."""
+    F = data.F[~data.failed]
+    return [float(v) for v in F.std(axis=0)] if len(F) > 1 else []
+
+
+def _seed(seed: int, generation: int) -> int:
+    """The inner search's seed: a function of the campaign's seed and the generation only, so that a
+    resumed run searches exactly as an uninterrupted one."""
+    return int(np.random.default_rng([seed, generation]).integers(2**31 - 1))

@@ -1,0 +1,170 @@
+"""Surrogate models of a campaign's expensive answers, fitted from its store.
+
+One Gaussian-process regression per CFD objective and per CFD-derived constraint (scikit-learn's
+:class:`~sklearn.gaussian_process.GaussianProcessRegressor`: constant × Matérn 5/2 with one length scale
+per design variable, plus a white-noise term for the solver's scatter), fitted on the designs that gave
+values; and a Gaussian-process classifier of **failure** — a design that does not give usable values
+(failed mesh, diverged or unsettled solve, timeout) — fitted on every design that reached a worker.
+
+Conventions:
+
+* design vectors are scaled to the unit box by the problem's bounds before fitting, so length scales are
+  shares of each variable's range;
+* objectives are the minimised values (:attr:`EvaluationRow.minimised`), constraints G ≤ 0 feasible;
+  both are standardised by the regressor (``normalize_y``), so predictions and standard deviations come
+  back in the objective's own unit;
+* the training set is capped (:attr:`SurrogateSettings.training`): a GP's fit costs O(n³), and the designs
+  near the front are the ones the infill ranks, so the capped set is the ``training`` designs of best
+  non-dominated rank (ties: the most recent). The classifier takes the ``training`` most recent designs.
+* Fits are warm-started from the hyperparameters of the previous generation (stored with it, as JSON
+  numbers — nothing is pickled), with a bounded number of optimiser iterations; the same store therefore
+  gives the same models, on resume too.
+"""
+
+from __future__ import annotations
+
+import warnings
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+#: Iterations of the hyperparameter optimiser per fit (warm-started: a few suffice once the run settles).
+FIT_ITERATIONS = 60
+
+
+@dataclass(frozen=True)
+class Prediction:
+    """Model outputs for ``n`` designs: ``mean``/``std`` ``(n, m)`` of the minimised objectives,
+    ``g_mean``/``g_std`` ``(n, k)`` of the modelled constraints, ``p_fail`` ``(n,)``."""
+
+    mean: np.ndarray
+    std: np.ndarray
+    g_mean: np.ndarray
+    g_std: np.ndarray
+    p_fail: np.ndarray
+
+
+@dataclass(frozen=True)
+class TrainingData:
+    """What the models learn from. X: ``(n, d)`` design vectors of every design that reached a worker;
+    failed: ``(n,)`` bool; F: ``(n, m)`` minimised objectives, G: ``(n, k)`` modelled constraints (rows of
+    failed designs are ignored); rank: ``(n,)`` non-dominated rank among the designs with values (failed:
+    a large number); order: ``(n,)`` recency (larger is more recent)."""
+
+    X: np.ndarray
+    failed: np.ndarray
+    F: np.ndarray
+    G: np.ndarray
+    rank: np.ndarray
+    order: np.ndarray
+
+
+def _optimizer(iterations: int):
+    """scikit-learn's ``optimizer`` callable: L-BFGS-B with a bounded number of iterations."""
+    from scipy.optimize import minimize
+
+    def run(objective, theta0, bounds):
+        result = minimize(objective, theta0, method="L-BFGS-B", jac=True, bounds=bounds,
+                          options={"maxiter": iterations})
+        return result.x, result.fun
+
+    return run
+
+
+def _regressor(d: int, theta: Sequence[float] | None):
+    from sklearn.gaussian_process import GaussianProcessRegressor
+    from sklearn.gaussian_process.kernels import ConstantKernel, Matern, WhiteKernel
+
+    kernel = (ConstantKernel(1.0, (1e-3, 1e3)) * Matern(np.full(d, 0.5), (1e-3, 1e2), nu=2.5)
+              + WhiteKernel(1e-4, (1e-8, 1e-1)))
+    if theta is not None and len(theta) == len(kernel.theta):
+        kernel = kernel.clone_with_theta(np.clip(np.asarray(theta, float), *kernel.bounds.T))
+    return GaussianProcessRegressor(kernel, normalize_y=True, optimizer=_optimizer(FIT_ITERATIONS))
+
+
+class Models:
+    """The fitted models of one generation (see the module docstring).
+
+    lower, upper: the design box; labels: names of the modelled objectives and constraints (for the
+    stored hyperparameters); theta: ``{label: log-hyperparameters}`` to warm-start from.
+    """
+
+    def __init__(self, lower: np.ndarray, upper: np.ndarray, objectives: Sequence[str], constraints: Sequence[str]):
+        self.lower, self.upper = np.asarray(lower, float), np.asarray(upper, float)
+        self.objectives, self.constraints = tuple(objectives), tuple(constraints)
+        self._regressors: dict[str, object] = {}
+        self._classifier = None
+        self._p_fail_constant = 0.0
+        self.training_size = 0
+
+    def scale(self, X: np.ndarray) -> np.ndarray:
+        span = np.where(self.upper > self.lower, self.upper - self.lower, 1.0)
+        return (np.asarray(X, float) - self.lower) / span
+
+    # ------------------------------------------------------------------------------------------- fit
+    def fit(self, data: TrainingData, cap: int, theta: dict[str, list[float]] | None = None) -> Models:
+        """Fit every model on ``data`` (at most ``cap`` designs each), warm-started from ``theta``."""
+        theta = theta or {}
+        ok = ~data.failed
+        if ok.sum() < 2:
+            raise ValueError(f"the surrogate needs at least 2 designs with values, the store has {int(ok.sum())}")
+        chosen = np.flatnonzero(ok)
+        chosen = chosen[np.lexsort((-data.order[chosen], data.rank[chosen]))][:cap]
+        X = self.scale(data.X[chosen])
+        self.training_size = len(chosen)
+        targets = [(label, data.F[chosen, i]) for i, label in enumerate(self.objectives)]
+        targets += [(label, data.G[chosen, i]) for i, label in enumerate(self.constraints)]
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")        # convergence warnings of a bounded fit: expected
+            for label, y in targets:
+                model = _regressor(X.shape[1], theta.get(label))
+                self._regressors[label] = model.fit(X, y)
+            self._fit_classifier(data, cap, theta.get("failure"))
+        return self
+
+    def _fit_classifier(self, data: TrainingData, cap: int, theta) -> None:
+        recent = np.argsort(-data.order, kind="stable")[:cap]
+        y = data.failed[recent]
+        self._classifier = None
+        if y.all() or not y.any():
+            # one class only: the observed share, shrunk towards "unknown" by one pseudo-observation each way
+            self._p_fail_constant = (y.sum() + 1.0) / (len(y) + 2.0) if y.any() else 0.0
+            return
+        from sklearn.gaussian_process import GaussianProcessClassifier
+        from sklearn.gaussian_process.kernels import RBF, ConstantKernel
+
+        kernel = ConstantKernel(1.0, (1e-2, 1e2)) * RBF(0.3, (1e-2, 1e1))
+        if theta is not None and len(theta) == len(kernel.theta):
+            kernel = kernel.clone_with_theta(np.clip(np.asarray(theta, float), *kernel.bounds.T))
+        self._classifier = GaussianProcessClassifier(kernel, optimizer=_optimizer(FIT_ITERATIONS)).fit(
+            self.scale(data.X[recent]), y.astype(int))
+
+    def theta(self) -> dict[str, list[float]]:
+        """The fitted log-hyperparameters per model (JSON numbers, stored with the generation)."""
+        out = {label: [float(v) for v in m.kernel_.theta] for label, m in self._regressors.items()}
+        if self._classifier is not None:
+            out["failure"] = [float(v) for v in self._classifier.kernel_.theta]
+        return out
+
+    # --------------------------------------------------------------------------------------- predict
+    def predict(self, X: np.ndarray) -> Prediction:
+        X = self.scale(np.atleast_2d(X))
+        n = len(X)
+        if n == 0:
+            empty = np.zeros((0, len(self.objectives))), np.zeros((0, len(self.constraints)))
+            return Prediction(empty[0], empty[0], empty[1], empty[1], np.zeros(0))
+
+        def stack(labels):
+            if not labels:
+                return np.zeros((n, 0)), np.zeros((n, 0))
+            pairs = [self._regressors[label].predict(X, return_std=True) for label in labels]
+            return np.column_stack([p[0] for p in pairs]), np.column_stack([p[1] for p in pairs])
+
+        mean, std = stack(self.objectives)
+        g_mean, g_std = stack(self.constraints)
+        if self._classifier is None:
+            p_fail = np.full(n, self._p_fail_constant)
+        else:
+            p_fail = self._classifier.predict_proba(X)[:, 1]
+        return Prediction(mean, std, g_mean, g_std, p_fail)
