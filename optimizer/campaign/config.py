@@ -59,10 +59,10 @@ from optimizer.config import (
 )
 from optimizer.yamlsource import Source
 
-__all__ = ["ANALYTIC", "ANALYTIC_CONSTRAINTS", "FIGURES", "MONITOR_OF", "AlgorithmConfig", "AnalyticConfig",
-           "CampaignConfig", "ClusterOptions", "ConvergencePolicy", "Crossover", "ExecutionConfig", "FigureConstraint",
-           "InjectedFailures", "METHODS", "Mutation", "Objective", "OutputConfig", "SurrogateSettings", "check_campaign", "load_campaign",
-           "walltime_seconds"]
+__all__ = ["ANALYTIC", "ANALYTIC_CONSTRAINTS", "FIGURES", "METHODS", "MONITOR_OF", "AlgorithmConfig",
+           "AnalyticConfig", "CampaignConfig", "ClusterOptions", "ConvergencePolicy", "Crossover", "ExecutionConfig",
+           "FigureConstraint", "InjectedFailures", "Mutation", "Objective", "OutputConfig", "SurrogateSettings",
+           "check_campaign", "load_campaign", "walltime_seconds"]
 
 #: Figures of :class:`optimizer.evaluate.Evaluation` that can be objectives or constraints, with units.
 FIGURES: dict[str, str] = {

@@ -110,7 +110,8 @@ class SurrogateOffspring(PlainOffspring):
         p = proposal.prediction
         predicted = {}
         for i, x in enumerate(proposal.X):
-            predicted[self.problem.key(x)] = {"mean": [float(v) for v in p.mean[i]], "std": [float(v) for v in p.std[i]],
+            predicted[self.problem.key(x)] = {"mean": [float(v) for v in p.mean[i]],
+                                              "std": [float(v) for v in p.std[i]],
                                               "p_fail": float(p.p_fail[i]), "role": proposal.roles[i]}
         search = {"method": self.method, "drawn": proposal.drawn, "screened": proposal.screened,
                   "batch": len(proposal.X), "training": models.training_size, "theta": models.theta(),

@@ -363,7 +363,8 @@ class Store:
         with self._db:
             self._db.execute(
                 "INSERT INTO generations (generation, members, rank, crowding, offspring, feasible_offspring, "
-                "feasible_share, cache_hits, hypervolume, rng_state, finished, search) VALUES (?,?,?,?,?,?,?,?,?,?,?,?)",
+                "feasible_share, cache_hits, hypervolume, rng_state, finished, search) "
+                "VALUES (?,?,?,?,?,?,?,?,?,?,?,?)",
                 (row.generation, dumps(row.members), dumps(row.rank), dumps(row.crowding), dumps(row.offspring),
                  row.feasible_offspring, row.feasible_share, row.cache_hits, row.hypervolume,
                  json.dumps(row.rng_state), row.finished, None if row.search is None else dumps(row.search)))
