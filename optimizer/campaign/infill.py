@@ -18,7 +18,8 @@ The rule (the reasoning and its evidence: ``docs/decisions/0017-surrogate-infill
 4. Slots still empty take the predicted-feasible candidates farthest from every design chosen or
    evaluated (space filling), so a generation always sends a full batch.
 
-Hypervolume is measured in objectives normalised by the run's front (ideal 0, nadir 1, reference 1.1).
+Hypervolume is measured as the run measures it: against the run's reference point, in objectives scaled
+so that the front's ideal point is 0 and the reference point 1.
 """
 
 from __future__ import annotations
@@ -91,20 +92,21 @@ def _improvement_2d(front: np.ndarray, points: np.ndarray, reference: np.ndarray
 
 
 # ------------------------------------------------------------------------------------------- choice
-def choose(prediction: Prediction, front: np.ndarray, batch: int, exploration: float, failure_limit: float,
-           X: np.ndarray, evaluated: np.ndarray) -> tuple[np.ndarray, list[str]]:
+def choose(prediction: Prediction, front: np.ndarray, reference: np.ndarray | None, batch: int, exploration: float,
+           failure_limit: float, X: np.ndarray, evaluated: np.ndarray) -> tuple[np.ndarray, list[str]]:
     """Indices into the pool (rows of ``X``, scaled to the unit box) and their roles (module docstring).
 
-    front: ``(k, m)`` minimised objectives of the run's feasible non-dominated designs; evaluated:
+    front: ``(k, m)`` minimised objectives of the run's feasible non-dominated designs; reference: the
+    run's hypervolume reference point (minimised; None: from the front and the predictions); evaluated:
     ``(e, d)`` scaled design vectors already evaluated (never chosen again)."""
     n = len(X)
     if n == 0:
         return np.zeros(0, int), []
-    lo, hi = _normalisation(front, prediction.mean)
+    lo, hi = _normalisation(front, prediction.mean, reference)
     mean = (prediction.mean - lo) / (hi - lo)
     optimistic = (prediction.mean - KAPPA * prediction.std - lo) / (hi - lo)
     believed = (front - lo) / (hi - lo) if len(front) else np.zeros((0, mean.shape[1]))
-    reference = np.full(mean.shape[1], 1.1)
+    reference = np.ones(mean.shape[1])
     safe = prediction.p_fail <= failure_limit
     feasible = safe & np.all(prediction.g_mean <= 0.0, axis=1)
     hopeful = safe & np.all(prediction.g_mean - KAPPA * prediction.g_std <= 0.0, axis=1)
@@ -140,10 +142,17 @@ def choose(prediction: Prediction, front: np.ndarray, batch: int, exploration: f
     return np.array(chosen, int), roles
 
 
-def _normalisation(front: np.ndarray, mean: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Ideal and nadir of the front (of the predictions while the run has no feasible design)."""
+def _normalisation(front: np.ndarray, mean: np.ndarray, reference: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
+    """The box mapped to the unit square: from the front's ideal point (the predictions' while the run has
+    no feasible design) to the run's hypervolume reference point (without one: the worst of front and
+    predictions plus a tenth of their range), so that improvements are valued as the run's hypervolume
+    values them — a design that extends the front counts as much as one that pushes it forward."""
     base = front if len(front) else mean
-    lo, hi = base.min(axis=0), base.max(axis=0)
+    lo = base.min(axis=0)
+    if reference is None:
+        worst = np.vstack([base, mean]).max(axis=0)
+        reference = worst + 0.1 * np.maximum(worst - lo, 1e-12)
+    hi = np.asarray(reference, float)
     span = np.where(hi > lo, hi - lo, np.maximum(np.abs(hi), 1.0))
     return lo, lo + span
 
@@ -204,13 +213,13 @@ class _ModelProblem:
 
 
 def propose(problem, models: Models, population_X: np.ndarray, *, batch: int, pool: int, exploration: float,
-            failure_limit: float, front: np.ndarray, evaluated_X: np.ndarray, seed: int, crossover, mutation,
-            population_size: int) -> Proposal:
+            failure_limit: float, front: np.ndarray, reference: np.ndarray | None, evaluated_X: np.ndarray, seed: int,
+            crossover, mutation, population_size: int) -> Proposal:
     """The batch of one surrogate-assisted generation (module docstring).
 
     problem: the :class:`CampaignProblem`; models: fitted on the store; population_X: the campaign's
     population (the inner search starts there); front: minimised objectives of the run's feasible
-    non-dominated designs; evaluated_X: every design already evaluated; seed: of the inner search;
+    non-dominated designs; reference: the run's hypervolume reference point (minimised); evaluated_X: every design already evaluated; seed: of the inner search;
     crossover, mutation: the campaign's settings (``eta``, ``prob``)."""
     from pymoo.algorithms.moo.nsga2 import NSGA2
     from pymoo.operators.crossover.sbx import SBX
@@ -241,7 +250,7 @@ def propose(problem, models: Models, population_X: np.ndarray, *, batch: int, po
     pool_X = np.unique(pool_X, axis=0)
     prediction = models.predict(pool_X)
     scaled = models.scale(pool_X)
-    index, roles = choose(prediction, front, batch, exploration, failure_limit, scaled,
+    index, roles = choose(prediction, front, reference, batch, exploration, failure_limit, scaled,
                           models.scale(evaluated_X) if len(evaluated_X) else np.zeros((0, problem.n_var)))
     chosen = Prediction(*(getattr(prediction, f)[index] for f in ("mean", "std", "g_mean", "g_std", "p_fail")))
     return Proposal(pool_X[index], roles, chosen, inner.drawn, len(pool_X),

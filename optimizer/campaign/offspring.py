@@ -105,7 +105,7 @@ class SurrogateOffspring(PlainOffspring):
         fit_seconds = time.perf_counter() - t0
         proposal = propose(self.problem, models, algorithm.pop.get("X"), batch=a.batch, pool=a.surrogate.pool,
                            exploration=a.surrogate.exploration, failure_limit=a.surrogate.failure_limit,
-                           front=front, evaluated_X=evaluated, seed=_seed(a.seed, g), crossover=a.crossover,
+                           front=front, reference=self.store.campaign().reference, evaluated_X=evaluated, seed=_seed(a.seed, g), crossover=a.crossover,
                            mutation=a.mutation, population_size=a.population)
         p = proposal.prediction
         predicted = {}

@@ -45,8 +45,25 @@ def progress_line(p) -> str:
     counts = f"{p.done} done, {p.failed} failed, {p.infeasible} infeasible, {p.cached} cached"
     if not p.finished:
         counts += f", {p.running} running"
-    return (f"generation {p.generation + 1}/{p.generations}: {counts} of {p.total} | ETA {duration(p.eta_s)} | "
+    line = (f"generation {p.generation + 1}/{p.generations}: {counts} of {p.total} | ETA {duration(p.eta_s)} | "
             f"best {best} | hypervolume {number(p.hypervolume)} | feasible {share}")
+    search = search_text(p.search)
+    return f"{line} | {search}" if search else line
+
+
+def search_text(search: dict | None) -> str:
+    """How a generation's offspring were found, in a few words: ``drew 1000, 412 feasible, 20 to CFD``
+    and, once evaluated, the models' out-of-sample error on them (surrogate mode)."""
+    if not search or search.get("drawn") is None:
+        return ""
+    text = f"drew {search['drawn']}, {search['screened']} feasible, {search['batch']} to CFD"
+    error = search.get("error")
+    if error:
+        text += "; model error " + ", ".join(f"{k} {v:.0%}" for k, v in error.items())
+    failures = search.get("failures") or {}
+    if failures.get("observed") is not None and failures.get("predicted") is not None:
+        text += f", failed {failures['observed']:.0%} (predicted {failures['predicted']:.0%})"
+    return text
 
 
 class ProgressDisplay:
@@ -119,6 +136,10 @@ def status_of(directory: str | Path) -> dict:
         "hypervolume": [g.hypervolume for g in generations],
         "feasible_share": [g.feasible_share for g in generations],
         "cache_hits": sum(g.cache_hits for g in generations),
+        "method": config.algorithm.method,
+        "search": [{"generation": g.generation + 1, **{k: v for k, v in (g.search or {}).items()
+                                                     if k not in ("predicted", "theta", "scale")}}
+                   for g in generations],
         "mean_evaluation_seconds": sum(seconds) / len(seconds) if seconds else None,
         "last_stored": max((r.finished for r in rows), default=None),
         "problem": (config.analytic.problem if config.analytic
@@ -149,6 +170,11 @@ def format_status(s: dict) -> str:
         + ("-" if not s["feasible_share"] or s["feasible_share"][-1] is None else f"{s['feasible_share'][-1]:.0%}")
         + f"; cache hits {s['cache_hits']}; mean evaluation {duration(s['mean_evaluation_seconds'])}",
     ]
+    searched = [x for x in s.get("search", []) if x.get("drawn") is not None]
+    if searched:
+        last = searched[-1]
+        lines.append(f"  offspring ({s.get('method', 'nsga2')}), generation {last['generation']}: "
+                     + search_text(last))
     return "\n".join(lines)
 
 
