@@ -168,7 +168,7 @@ class SurrogateSettings(Section):
     exploration: float = Field(0.25, ge=0, le=1, description="share of each batch chosen where the models are "
                                "uncertain (optimistic hypervolume improvement) rather than where they predict "
                                "the most improvement")
-    training: int = Field(300, ge=10, le=5000, description="largest number of stored designs each model is fitted "
+    training: int = Field(200, ge=10, le=5000, description="largest number of stored designs each model is fitted "
                           "on (a Gaussian process costs O(n³)): those nearest the front")
     failure_limit: float = Field(0.5, gt=0, le=1, description="candidates whose predicted probability of failing "
                                  "(no mesh, diverged, unsettled, timeout) is above this are not sent")
