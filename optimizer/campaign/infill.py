@@ -219,7 +219,8 @@ def propose(problem, models: Models, population_X: np.ndarray, *, batch: int, po
 
     problem: the :class:`CampaignProblem`; models: fitted on the store; population_X: the campaign's
     population (the inner search starts there); front: minimised objectives of the run's feasible
-    non-dominated designs; reference: the run's hypervolume reference point (minimised); evaluated_X: every design already evaluated; seed: of the inner search;
+    non-dominated designs; reference: the run's hypervolume reference point (minimised); evaluated_X:
+    every design already evaluated; seed: of the inner search;
     crossover, mutation: the campaign's settings (``eta``, ``prob``)."""
     from pymoo.algorithms.moo.nsga2 import NSGA2
     from pymoo.operators.crossover.sbx import SBX

@@ -8,7 +8,8 @@ The surrogate mode (:mod:`optimizer.campaign.infill`) checks its whole candidate
 
 Each step returns the offspring and a ``search`` record stored with the generation::
 
-    method     "nsga2" or "surrogate"
+    method     "nsga2" or "surrogate"; "initial" for the initial population (drawn uniformly in the box,
+               rejection-sampled to geometric feasibility: the draws are logged when it is drawn)
     drawn      candidates drawn by the operators (plain: the mating; surrogate: the search on the models)
     screened   of those, the geometrically feasible ones
     batch      designs sent to the CFD
@@ -68,9 +69,10 @@ class PlainOffspring:
 
     def ask(self, algorithm, g: int):
         self.filter.drawn = self.filter.screened = 0
+        method = self.method if algorithm.is_initialized else "initial"
         offspring = algorithm.ask()
         n = 0 if offspring is None else len(offspring)
-        return offspring, {"method": self.method, "drawn": self.filter.drawn, "screened": self.filter.screened,
+        return offspring, {"method": method, "drawn": self.filter.drawn, "screened": self.filter.screened,
                            "batch": n}
 
     def review(self, search: dict, rows: Sequence[EvaluationRow]) -> dict:
@@ -91,6 +93,7 @@ class SurrogateOffspring(PlainOffspring):
         if not algorithm.is_initialized:           # the initial population: drawn as in plain mode
             return super().ask(algorithm, g)
         from pymoo.core.population import Population
+        from threadpoolctl import threadpool_limits
 
         from optimizer.campaign.infill import propose
         from optimizer.campaign.surrogate import Models
@@ -101,12 +104,16 @@ class SurrogateOffspring(PlainOffspring):
         last = self.store.last_generation()
         theta = (last.search or {}).get("theta") if last is not None else None
         models = Models(self.problem.lower, self.problem.upper, self.problem.objective_labels, self.modelled)
-        models.fit(data, a.surrogate.training, theta)
-        fit_seconds = time.perf_counter() - t0
-        proposal = propose(self.problem, models, algorithm.pop.get("X"), batch=a.batch, pool=a.surrogate.pool,
-                           exploration=a.surrogate.exploration, failure_limit=a.surrogate.failure_limit,
-                           front=front, reference=self.store.campaign().reference, evaluated_X=evaluated, seed=_seed(a.seed, g), crossover=a.crossover,
-                           mutation=a.mutation, population_size=a.population)
+        # one BLAS thread: the matrices are small, and a thread count's summation order would otherwise
+        # change the fitted models in their last bits between a run and its resumption on another machine
+        with threadpool_limits(limits=1):
+            models.fit(data, a.surrogate.training, theta)
+            fit_seconds = time.perf_counter() - t0
+            proposal = propose(self.problem, models, algorithm.pop.get("X"), batch=a.batch, pool=a.surrogate.pool,
+                               exploration=a.surrogate.exploration, failure_limit=a.surrogate.failure_limit,
+                               front=front, reference=self.store.campaign().reference,
+                               evaluated_X=evaluated, seed=_seed(a.seed, g), crossover=a.crossover,
+                               mutation=a.mutation, population_size=a.population)
         p = proposal.prediction
         predicted = {}
         for i, x in enumerate(proposal.X):

@@ -57,9 +57,15 @@ def wait_until_mid_generation(proc: subprocess.Popen, path: Path, generation: in
     raise AssertionError("the campaign did not reach the generation in time")
 
 
-def test_sigkill_mid_generation_then_resume(tmp_path):
+#: The surrogate-assisted search: batches of 5, models rebuilt from the store on resume.
+SURROGATE = CONFIG.replace("seed: 11}", "seed: 11, method: surrogate, offspring: 5,\n            "
+                           "surrogate: {pool: 10, training: 40}}")
+
+
+@pytest.mark.parametrize("config, batch", [(CONFIG, 10), (SURROGATE, 5)], ids=["nsga2", "surrogate"])
+def test_sigkill_mid_generation_then_resume(tmp_path, config, batch):
     config_path = tmp_path / "zdt1.yaml"
-    config_path.write_text(CONFIG)
+    config_path.write_text(config)
     # the uninterrupted run, same seed
     run_campaign(load_campaign(config_path), tmp_path / "whole")
 
@@ -79,7 +85,7 @@ def test_sigkill_mid_generation_then_resume(tmp_path):
     with Store(run / STORE_NAME, readonly=True) as store:
         assert store.campaign().state == "running"             # it never had the chance to say otherwise
         partial = len(list(store.evaluations(3)))
-    assert 3 <= partial < 10                                   # killed inside generation 4
+    assert 3 <= partial < batch                                # killed inside generation 4
 
     done = subprocess.run(millfoil("resume", str(run), "--quiet"), capture_output=True, text=True, timeout=300)
     assert done.returncode == 0, done.stderr
@@ -92,6 +98,7 @@ def test_sigkill_mid_generation_then_resume(tmp_path):
         assert set(after) == {r.key for r in whole.evaluations()}
         assert final_population(resumed) == final_population(whole)
         assert [g.members for g in resumed.generations()] == [g.members for g in whole.generations()]
+        assert [g.offspring for g in resumed.generations()] == [g.offspring for g in whole.generations()]
         assert resumed.campaign().state == "finished"
 
 

@@ -1,0 +1,222 @@
+"""The surrogate-assisted search: hypervolume improvement, the models, the batch choice, feasible offspring
+in plain mode, and a surrogate campaign through the driver and store."""
+
+from __future__ import annotations
+
+import sqlite3
+
+import numpy as np
+import pytest
+
+from optimizer.campaign.config import ConfigError, load_campaign
+from optimizer.campaign.driver import run_campaign
+from optimizer.campaign.infill import choose, hypervolume_improvement
+from optimizer.campaign.offspring import FeasibleOffspring
+from optimizer.campaign.progress import format_status, search_text, status_of
+from optimizer.campaign.store import STORE_NAME, Store, non_dominated
+from optimizer.campaign.surrogate import Models, Prediction, TrainingData
+
+
+def campaign(tmp_path, text: str, *overrides):
+    path = tmp_path / "c.yaml"
+    path.write_text(text)
+    return load_campaign(path, overrides)
+
+
+ZDT1 = ("analytic: {problem: zdt1, variables: 8}\n"
+        "objectives: [{figure: f1, reference: 1.1}, {figure: f2, reference: 10}]\n"
+        "algorithm: {population: 20, generations: 6, seed: 5}\n"
+        "execution: {backend: inline}\noutput: {sync: normal}\n")
+
+
+# ------------------------------------------------------------------------------------- hypervolume
+@pytest.mark.parametrize("m", [2, 3])
+def test_hypervolume_improvement_is_the_hypervolume_difference(m):
+    from pymoo.indicators.hv import HV
+
+    rng = np.random.default_rng(m)
+    front = rng.random((12, m))
+    front = front[non_dominated(front)]
+    points = rng.random((30, m)) * 1.2
+    reference = np.full(m, 1.1)
+    hv = HV(ref_point=reference)
+    expected = [hv(np.vstack([front, p])) - hv(front) if np.all(p < reference) else 0.0 for p in points]
+    assert hypervolume_improvement(front, points, reference) == pytest.approx(expected, abs=1e-12)
+
+
+def test_improvement_against_an_empty_front_is_the_dominated_box():
+    gain = hypervolume_improvement(np.zeros((0, 2)), np.array([[0.1, 0.6], [2.0, 0.0]]), np.array([1.0, 1.0]))
+    assert gain == pytest.approx([0.9 * 0.4, 0.0])
+
+
+# ------------------------------------------------------------------------------------------ models
+def test_the_models_predict_out_of_sample_and_learn_where_designs_fail():
+    rng = np.random.default_rng(0)
+    X = rng.random((80, 3))
+    failed = X[:, 0] > 0.8
+    F = np.column_stack([np.sin(3 * X[:, 0]) + X[:, 1], (X[:, 2] - 0.5) ** 2])
+    data = TrainingData(X, failed, np.where(failed[:, None], np.nan, F), np.zeros((80, 0)), np.zeros(80),
+                        np.arange(80.0))
+    models = Models(np.zeros(3), np.ones(3), ["a", "b"], []).fit(data, cap=80)
+    Y = rng.random((40, 3)) * [0.8, 1, 1]
+    truth = np.column_stack([np.sin(3 * Y[:, 0]) + Y[:, 1], (Y[:, 2] - 0.5) ** 2])
+    p = models.predict(Y)
+    assert np.all(np.sqrt(np.mean((p.mean - truth) ** 2, axis=0)) < 0.05 * truth.std(axis=0) + 1e-3)
+    assert p.std.shape == (40, 2) and p.g_mean.shape == (40, 0)
+    fail_side = models.predict(np.array([[0.95, 0.5, 0.5]])).p_fail[0]
+    safe_side = models.predict(np.array([[0.2, 0.5, 0.5]])).p_fail[0]
+    assert fail_side > 0.5 > safe_side
+    assert set(models.theta()) == {"a", "b", "failure"}
+
+
+def test_a_warm_start_from_stored_hyperparameters_gives_the_same_models():
+    rng = np.random.default_rng(1)
+    X = rng.random((40, 2))
+    data = TrainingData(X, np.zeros(40, bool), X.sum(axis=1, keepdims=True), np.zeros((40, 0)), np.zeros(40),
+                        np.arange(40.0))
+    first = Models(np.zeros(2), np.ones(2), ["s"], []).fit(data, cap=40)
+    again = Models(np.zeros(2), np.ones(2), ["s"], []).fit(data, cap=40)
+    assert first.theta() == again.theta()
+    warm = Models(np.zeros(2), np.ones(2), ["s"], []).fit(data, cap=40, theta=first.theta())
+    assert np.allclose(warm.predict(X[:5]).mean, first.predict(X[:5]).mean, atol=1e-6)
+
+
+# ------------------------------------------------------------------------------------------ choice
+def _prediction(mean, std=None, p_fail=None):
+    mean = np.asarray(mean, float)
+    n = len(mean)
+    return Prediction(mean, np.zeros_like(mean) if std is None else np.asarray(std, float), np.zeros((n, 0)),
+                      np.zeros((n, 0)), np.zeros(n) if p_fail is None else np.asarray(p_fail, float))
+
+
+def test_the_batch_improves_the_front_and_skips_evaluated_and_failing_designs():
+    X = np.linspace(0, 1, 6)[:, None]
+    mean = [[0.5, 0.5], [0.2, 0.9], [0.9, 0.2], [0.95, 0.95], [0.1, 0.1], [0.3, 0.3]]
+    index, roles = choose(_prediction(mean, p_fail=[0, 0, 0, 0, 0.9, 0]), front=np.array([[0.6, 0.6]]),
+                          reference=np.array([1.1, 1.1]), batch=3, exploration=0.0, failure_limit=0.5, X=X,
+                          evaluated=X[5:6])
+    assert 4 not in index and 5 not in index                   # likely to fail; already evaluated
+    assert index[0] == 0 and set(roles) == {"exploit"}          # the largest predicted improvement first
+    assert len(index) == 3
+
+
+def test_exploration_takes_the_uncertain_designs():
+    X = np.linspace(0, 1, 4)[:, None]
+    mean = [[0.7, 0.7], [0.8, 0.8], [0.8, 0.8], [0.5, 0.5]]
+    std = [[0, 0], [0.3, 0.3], [0, 0], [0, 0]]
+    index, roles = choose(_prediction(mean, std), front=np.array([[0.6, 0.6]]), reference=np.array([1.1, 1.1]),
+                          batch=2, exploration=0.5, failure_limit=0.5, X=X, evaluated=np.zeros((0, 1)))
+    assert list(index) == [3, 1] and roles == ["exploit", "explore"]
+
+
+# ------------------------------------------------------------------------------------- plain mode
+class _HalfBox:
+    """A stand-in problem whose designs with x1 > 0.3 are geometrically infeasible."""
+
+    def prescreen(self, X):
+        return np.ones(len(X), bool)
+
+    def check(self, x):
+        from optimizer.campaign.problem import Feasibility
+
+        return Feasibility((float(x[0] - 0.3),), "x1 above 0.3")
+
+
+def test_plain_offspring_are_redrawn_until_feasible():
+    from pymoo.algorithms.moo.nsga2 import NSGA2
+    from pymoo.core.evaluator import Evaluator
+    from pymoo.core.problem import Problem
+
+    class Sum(Problem):
+        def __init__(self):
+            super().__init__(n_var=4, n_obj=2, xl=0.0, xu=1.0)
+
+        def _evaluate(self, X, out, *args, **kwargs):
+            out["F"] = np.column_stack([X[:, 0], X[:, 1:].sum(axis=1)])
+
+    filter_ = FeasibleOffspring(_HalfBox())
+    start = np.random.default_rng(0).random((20, 4)) * [0.3, 1, 1, 1]
+    algorithm = NSGA2(pop_size=20, sampling=start, eliminate_duplicates=filter_)
+    algorithm.setup(Sum(), seed=3)
+    problem = algorithm.problem
+    initial = algorithm.ask()             # the initial population (feasible)
+    Evaluator().eval(problem, initial)
+    algorithm.tell(infills=initial)
+    filter_.drawn = filter_.screened = 0
+    for _ in range(5):
+        off = algorithm.ask()
+        assert len(off) == 20 and np.all(off.get("X")[:, 0] <= 0.3)
+        Evaluator().eval(problem, off)
+        algorithm.tell(infills=off)
+    assert 100 <= filter_.screened < filter_.drawn          # some were drawn again
+
+
+# -------------------------------------------------------------------------------------- campaigns
+def test_a_surrogate_campaign_beats_plain_nsga2_at_equal_evaluations(tmp_path):
+    from pymoo.indicators.hv import HV
+
+    def archive_hv(directory):
+        with Store(directory / STORE_NAME, readonly=True) as s:
+            F = np.array([r.minimised for r in s.evaluations() if r.feasible])
+            return len(F), HV(ref_point=np.array([1.1, 10.0]))(F[non_dominated(F)])
+
+    surrogate = campaign(tmp_path, ZDT1, "algorithm.method=surrogate", "algorithm.offspring=10",
+                         "algorithm.surrogate={pool: 20, training: 60}")
+    run_campaign(surrogate, tmp_path / "surrogate")
+    plain = campaign(tmp_path, ZDT1, "algorithm.offspring=10")
+    run_campaign(plain, tmp_path / "plain")
+    n_s, hv_s = archive_hv(tmp_path / "surrogate")
+    n_p, hv_p = archive_hv(tmp_path / "plain")
+    assert n_s == n_p == 70
+    assert hv_s > hv_p + 0.5            # plain NSGA-II has barely started at 70 evaluations on 8 variables
+
+    with Store(tmp_path / "surrogate" / STORE_NAME, readonly=True) as s:
+        searched = [g.search for g in s.generations()]
+    assert searched[0]["method"] == "initial"                # the initial population is drawn, not searched
+    for search in searched[1:]:
+        assert search["method"] == "surrogate" and search["batch"] == 10
+        assert search["drawn"] >= 20 * 10 and search["screened"] == search["drawn"]
+        assert set(search["error"]) == {"f1", "f2"} and len(search["predicted"]) == 10
+        assert search["seconds"]["fit"] > 0
+    status = status_of(tmp_path / "surrogate")
+    assert status["method"] == "surrogate" and "model error f1" in format_status(status)
+
+
+def test_plain_generations_record_their_draws(tmp_path):
+    run_campaign(campaign(tmp_path, ZDT1, "algorithm.generations=2"), tmp_path / "run")
+    with Store(tmp_path / "run" / STORE_NAME, readonly=True) as s:
+        last = s.generations()[-1].search
+    assert last == {"method": "nsga2", "drawn": 20, "screened": 20, "batch": 20}
+    assert search_text(last) == "drew 20, 20 feasible, 20 to CFD"
+
+
+@pytest.mark.parametrize("override, message", [
+    ("algorithm.method=kriging", r"algorithm.method.*nsga2.*surrogate"),
+    ("algorithm.surrogate.pool=0", r"algorithm.surrogate.pool"),
+    ("algorithm.surrogate.exploration=1.5", r"algorithm.surrogate.exploration"),
+    ("algorithm.surrogate.kappa=2", r"unknown key 'algorithm.surrogate.kappa'; allowed: pool, exploration"),
+])
+def test_bad_surrogate_settings_name_the_key(tmp_path, override, message):
+    with pytest.raises(ConfigError, match=message):
+        campaign(tmp_path, ZDT1, override)
+
+
+def test_the_batch_defaults_to_a_fifth_of_the_population_with_the_surrogate(tmp_path):
+    assert campaign(tmp_path, ZDT1).algorithm.batch == 20
+    assert campaign(tmp_path, ZDT1, "algorithm.method=surrogate").algorithm.batch == 4
+    assert campaign(tmp_path, ZDT1, "algorithm.method=surrogate", "algorithm.offspring=6").algorithm.batch == 6
+
+
+def test_a_store_of_the_first_schema_gains_the_search_column(tmp_path):
+    run_campaign(campaign(tmp_path, ZDT1, "algorithm.generations=2"), tmp_path / "run")
+    path = tmp_path / "run" / STORE_NAME
+    db = sqlite3.connect(path)
+    db.execute("ALTER TABLE generations DROP COLUMN search")
+    db.execute("PRAGMA user_version=1")
+    db.commit()
+    db.close()
+    with Store(path, readonly=True) as old:
+        assert [g.search for g in old.generations()] == [None, None]
+    with Store(path) as migrated:
+        assert [g.search for g in migrated.generations()] == [None, None]
+    assert sqlite3.connect(path).execute("PRAGMA user_version").fetchone()[0] == 2
