@@ -5,10 +5,13 @@ The rule (the reasoning and its evidence: ``docs/decisions/0017-surrogate-infill
 
 1. **Pool.** NSGA-II runs on the models for a few generations, starting from the campaign's population,
    with the campaign's own operators (SBX, PM): ``pool × batch`` candidates in all. Every candidate first
-   meets the **cheap geometric constraints exactly** (:meth:`CampaignProblem.prescreen` and
-   :meth:`~CampaignProblem.check`, milliseconds each): an infeasible one is never ranked by a model and
-   never sent. The models rank the rest: predicted objectives, predicted CFD constraints, and the
-   predicted probability of failure as a constraint ``p_fail ≤ failure_limit``.
+   meets the **cheap geometric constraints exactly** (:meth:`CampaignProblem.prescreen`: Eq. 21, and
+   Eq. 22 on the cutter path in tool-path mode; about a millisecond): one that fails them is never ranked
+   by a model. The models rank the rest: predicted objectives, predicted CFD constraints, and the
+   predicted probability of failure as a constraint ``p_fail ≤ failure_limit``. The full geometric check
+   (:meth:`~CampaignProblem.check`: the machined profile, self-crossing, pieces; 20 ms in tool-path mode)
+   runs on each design the choice below reaches, before it is taken: an infeasible design is never sent,
+   and the pool costs a few dozen full checks instead of a thousand.
 2. **Exploitation** (``batch − exploration·batch`` designs): greedily, the candidate whose predicted
    objectives add the most hypervolume to the run's front, the front then taking that prediction as
    if it were computed (the "believer" step of batch Bayesian optimisation), until the share is filled or
@@ -40,13 +43,16 @@ KAPPA = 2.0
 class Proposal:
     """A batch for the CFD. X: ``(batch, d)``; roles: ``exploit``/``explore``/``fill`` per design;
     prediction: the models' output for ``X``; drawn: candidates the search drew; screened: of those, the
-    geometrically feasible (modelled) ones; seconds: ``{"fit", "screen"}``."""
+    distinct ones that meet the cheap necessary conditions (the pool); checked: pool designs given the
+    full geometric check on the way to the batch; rejected: of those, the infeasible; seconds: ``{"screen"}``."""
 
     X: np.ndarray
     roles: list[str]
     prediction: Prediction
     drawn: int
     screened: int
+    checked: int
+    rejected: int
     seconds: dict[str, float] = field(default_factory=dict)
 
 
@@ -93,12 +99,14 @@ def _improvement_2d(front: np.ndarray, points: np.ndarray, reference: np.ndarray
 
 # ------------------------------------------------------------------------------------------- choice
 def choose(prediction: Prediction, front: np.ndarray, reference: np.ndarray | None, batch: int, exploration: float,
-           failure_limit: float, X: np.ndarray, evaluated: np.ndarray) -> tuple[np.ndarray, list[str]]:
+           failure_limit: float, X: np.ndarray, evaluated: np.ndarray,
+           confirm: Callable[[int], bool] = lambda i: True) -> tuple[np.ndarray, list[str]]:
     """Indices into the pool (rows of ``X``, scaled to the unit box) and their roles (module docstring).
 
     front: ``(k, m)`` minimised objectives of the run's feasible non-dominated designs; reference: the
     run's hypervolume reference point (minimised; None: from the front and the predictions); evaluated:
-    ``(e, d)`` scaled design vectors already evaluated (never chosen again)."""
+    ``(e, d)`` scaled design vectors already evaluated (never chosen again); confirm: the full geometric
+    check of a pool row, run on each candidate the choice reaches before it is taken (False: skipped)."""
     n = len(X)
     if n == 0:
         return np.zeros(0, int), []
@@ -116,7 +124,8 @@ def choose(prediction: Prediction, front: np.ndarray, reference: np.ndarray | No
     n_explore = int(round(exploration * batch))
     for role, points, allowed, slots in (("exploit", mean, feasible, batch - n_explore),
                                          ("explore", optimistic, hopeful, n_explore)):
-        for _ in range(slots):
+        taken = 0
+        while taken < slots:
             candidates = np.flatnonzero(available & allowed)
             if len(candidates) == 0:
                 break
@@ -124,6 +133,10 @@ def choose(prediction: Prediction, front: np.ndarray, reference: np.ndarray | No
             if gain.max() <= 0.0:
                 break
             pick = int(candidates[int(np.argmax(gain))])
+            if not confirm(pick):
+                available[pick] = False
+                continue
+            taken += 1
             chosen.append(pick)
             roles.append(role)
             believed = np.vstack([believed, mean[pick]])
@@ -136,6 +149,9 @@ def choose(prediction: Prediction, front: np.ndarray, reference: np.ndarray | No
         taken = np.vstack([evaluated, X[chosen]]) if chosen else evaluated
         distance = _min_distance(X[candidates], taken)
         pick = int(candidates[int(np.argmax(distance))])
+        if not confirm(pick):
+            available[pick] = False
+            continue
         chosen.append(pick)
         roles.append("fill")
         available &= ~_near(X, X[pick][None])
@@ -231,15 +247,12 @@ def propose(problem, models: Models, population_X: np.ndarray, *, batch: int, po
     cache: dict[bytes, bool] = {}
 
     def feasible(X: np.ndarray) -> np.ndarray:
-        ok = np.zeros(len(X), bool)
+        """The cheap necessary conditions (Eq. 21; Eq. 22 in tool-path mode), once per distinct design."""
         todo = [i for i, x in enumerate(X) if x.tobytes() not in cache]
         if todo:
-            screened = problem.prescreen(X[todo])
-            for i, s in zip(todo, screened, strict=True):
-                cache[X[i].tobytes()] = bool(s) and problem.check(X[i]).feasible
-        for i, x in enumerate(X):
-            ok[i] = cache[x.tobytes()]
-        return ok
+            for i, ok in zip(todo, problem.prescreen(X[todo]), strict=True):
+                cache[X[i].tobytes()] = bool(ok)
+        return np.array([cache[x.tobytes()] for x in X], bool)
 
     inner = _ModelProblem(problem, models, failure_limit, feasible)
     generations = max(1, int(np.ceil(pool * batch / population_size)))
@@ -251,8 +264,17 @@ def propose(problem, models: Models, population_X: np.ndarray, *, batch: int, po
     pool_X = np.unique(pool_X, axis=0)
     prediction = models.predict(pool_X)
     scaled = models.scale(pool_X)
+    checks = {"checked": 0, "rejected": 0}
+
+    def confirm(i: int) -> bool:
+        """The full geometric check (the machined profile in tool-path mode), only where the choice reaches."""
+        checks["checked"] += 1
+        ok = problem.check(pool_X[i]).feasible
+        checks["rejected"] += not ok
+        return ok
+
     index, roles = choose(prediction, front, reference, batch, exploration, failure_limit, scaled,
-                          models.scale(evaluated_X) if len(evaluated_X) else np.zeros((0, problem.n_var)))
+                          models.scale(evaluated_X) if len(evaluated_X) else np.zeros((0, problem.n_var)), confirm)
     chosen = Prediction(*(getattr(prediction, f)[index] for f in ("mean", "std", "g_mean", "g_std", "p_fail")))
-    return Proposal(pool_X[index], roles, chosen, inner.drawn, len(pool_X),
+    return Proposal(pool_X[index], roles, chosen, inner.drawn, len(pool_X), checks["checked"], checks["rejected"],
                     {"screen": time.perf_counter() - t0})

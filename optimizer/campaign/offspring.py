@@ -13,7 +13,9 @@ Each step returns the offspring and a ``search`` record stored with the generati
     drawn      candidates drawn by the operators (plain: the mating; surrogate: the search on the models)
     screened   of those, the geometrically feasible ones
     batch      designs sent to the CFD
-  surrogate only:
+  surrogate only (where "screened" counts the distinct candidates meeting the cheap necessary conditions,
+  Eq. 21 and, in tool-path mode, Eq. 22, and the full check runs only where the choice reaches):
+    checked, rejected  pool designs given the full geometric check, and of those the infeasible
     training   designs the regressions were fitted on; theta: {model: log-hyperparameters}
     predicted  {key: {"mean": [...], "std": [...], "p_fail": p, "role": exploit|explore|fill}}
     error      after the batch is evaluated: {objective label: RMSE / standard deviation of the training
@@ -121,7 +123,8 @@ class SurrogateOffspring(PlainOffspring):
                                               "std": [float(v) for v in p.std[i]],
                                               "p_fail": float(p.p_fail[i]), "role": proposal.roles[i]}
         search = {"method": self.method, "drawn": proposal.drawn, "screened": proposal.screened,
-                  "batch": len(proposal.X), "training": models.training_size, "theta": models.theta(),
+                  "checked": proposal.checked, "rejected": proposal.rejected, "batch": len(proposal.X),
+                  "training": models.training_size, "theta": models.theta(),
                   "predicted": predicted, "scale": _training_scale(data),
                   "seconds": {"fit": fit_seconds, "screen": proposal.seconds["screen"]}}
         return Population.new("X", proposal.X), search

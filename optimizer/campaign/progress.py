@@ -52,11 +52,16 @@ def progress_line(p) -> str:
 
 
 def search_text(search: dict | None) -> str:
-    """How a generation's offspring were found, in a few words: ``drew 1000, 412 feasible, 20 to CFD``
-    and, once evaluated, the models' out-of-sample error on them (surrogate mode)."""
+    """How a generation's offspring were found, in a few words: ``drew 120, 100 feasible, 100 to CFD``
+    (plain), ``drew 1000, 765 screened, 20 to CFD (2 of 22 checked infeasible)`` (surrogate) and, once
+    evaluated, the models' out-of-sample error on them (surrogate mode)."""
     if not search or search.get("drawn") is None:
         return ""
-    text = f"drew {search['drawn']}, {search['screened']} feasible, {search['batch']} to CFD"
+    if "checked" in search:     # surrogate: the pool passed the cheap conditions, the batch the full check
+        text = (f"drew {search['drawn']}, {search['screened']} screened, {search['batch']} to CFD "
+                f"({search['rejected']} of {search['checked']} checked infeasible)")
+    else:
+        text = f"drew {search['drawn']}, {search['screened']} feasible, {search['batch']} to CFD"
     error = search.get("error")
     if error:
         text += "; model error " + ", ".join(f"{k} {v:.0%}" for k, v in error.items())
