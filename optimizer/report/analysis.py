@@ -187,3 +187,51 @@ def health(run: Run) -> Health:
                   [stored[g].cache_hits if g in stored else 0 for g in gens],
                   {s: [status[g][s] for g in gens] for s in statuses},
                   {c: [cls[g][c] for g in gens] for c in classes}, times)
+
+
+@dataclass(frozen=True)
+class Convergence:
+    """A run's progress against its cost: after each design that reached the CFD (store order), how many
+    had (``evaluations``), the CPU hours they took (``cpu_hours``: the workers' CPU time, their wall time
+    where a record has none) and the hypervolume of every feasible design stored so far (``hypervolume``)
+    in the report's common normalisation (:func:`convergence`)."""
+
+    run: Run
+    evaluations: np.ndarray
+    cpu_hours: np.ndarray
+    hypervolume: np.ndarray
+
+
+def convergence(runs: list[Run]) -> list[Convergence]:
+    """Hypervolume against CFD evaluations for ``runs`` with the same objectives, on one scale: each
+    minimised objective mapped so that the best and worst values over the feasible designs of **all** the
+    runs are 0 and 1, against the reference point (1.1, …, 1.1). Failed evaluations count; geometrically
+    infeasible designs never reached the CFD and do not."""
+    from pymoo.indicators.hv import HV
+
+    feasible = [np.array(d.row.minimised, float) for r in runs for d in r.designs if d.row.feasible]
+    out = []
+    if not feasible:
+        return [Convergence(r, np.zeros(0), np.zeros(0), np.zeros(0)) for r in runs]
+    F = np.array(feasible)
+    lo, hi = F.min(axis=0), F.max(axis=0)
+    span = np.where(hi > lo, hi - lo, 1.0)
+    reference = np.full(F.shape[1], 1.1)
+    hv = HV(ref_point=reference)
+    for r in runs:
+        counted = [d for d in r.designs if d.row.status != "infeasible"]
+        evaluations = np.arange(1, len(counted) + 1, dtype=float)
+        seconds = [(d.row.seconds or {}).get("cpu") or d.row.wall_seconds or 0.0 for d in counted]
+        values = np.zeros(len(counted))
+        front = np.zeros((0, F.shape[1]))
+        level = 0.0
+        for i, d in enumerate(counted):
+            if d.row.feasible:
+                f = (np.array(d.row.minimised, float) - lo) / span
+                if np.all(f < reference):
+                    front = np.vstack([front, f])
+                    front = front[non_dominated(front)]
+                    level = float(hv(front))
+            values[i] = level
+        out.append(Convergence(r, evaluations, np.cumsum(seconds) / 3600.0, values))
+    return out

@@ -2,7 +2,7 @@
 
 Pareto planes (Fig. 9–11 style), the geometry gallery (Fig. 12–13: blades rebuilt from their stored
 parameters with :mod:`geometry`, milliseconds each), the kept fields of a few front designs (velocity
-magnitude, C_p, c_f, y+) and the campaign's health per generation.
+magnitude, C_p, c_f, y+), the campaign's health per generation and the hypervolume against the CFD spent.
 """
 
 from __future__ import annotations
@@ -18,7 +18,7 @@ import numpy as np  # noqa: E402
 
 from optimizer.campaign.fields import outline  # noqa: E402
 from optimizer.campaign.status import EvaluationStatus  # noqa: E402
-from optimizer.report.analysis import Health, Point, front  # noqa: E402
+from optimizer.report.analysis import Convergence, Health, Point, front  # noqa: E402
 from optimizer.report.run import Run  # noqa: E402
 
 plt.rcParams.update({"svg.fonttype": "path", "font.size": 9, "svg.hashsalt": "millfoil"})
@@ -214,3 +214,23 @@ def _wall_panels(axes, data: dict) -> None:
             ax.legend(fontsize=7)
         if name == "y_plus" and not np.isfinite(data[name][k]).any():
             ax.text(0.5, 0.5, "not known", transform=ax.transAxes, ha="center", va="center")
+
+
+def convergence_figure(curves: list[Convergence], path: Path) -> Path:
+    """Hypervolume against CFD evaluations (left) and against CPU hours (right), one line per run."""
+    fig, (left, right) = plt.subplots(1, 2, figsize=(9.6, 3.6), sharey=True)
+    for k, c in enumerate(curves):
+        label = f"{c.run.name} ({c.run.config.get('algorithm', {}).get('method', 'nsga2')})"
+        left.plot(c.evaluations, c.hypervolume, color=f"C{k % 10}", lw=1.2, label=label)
+        right.plot(c.cpu_hours, c.hypervolume, color=f"C{k % 10}", lw=1.2)
+    left.set_xlabel("CFD evaluations (failed ones included)")
+    right.set_xlabel("CPU hours of the evaluations")
+    left.set_ylabel("hypervolume (normalised over the runs shown)")
+    for ax in (left, right):
+        ax.grid(alpha=0.3)
+    if curves:
+        left.legend(fontsize=7, loc="lower right")
+    fig.tight_layout()
+    fig.savefig(path)
+    plt.close(fig)
+    return path

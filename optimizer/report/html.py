@@ -17,8 +17,17 @@ from importlib import metadata
 from pathlib import Path
 
 from optimizer.campaign.fields import read_fields
-from optimizer.report.analysis import TABLE7_COLUMNS, fields_designs, gallery, health, paper_row, points, table7
-from optimizer.report.figures import fields_figure, gallery_figure, health_figure, pareto_figure
+from optimizer.report.analysis import (
+    TABLE7_COLUMNS,
+    convergence,
+    fields_designs,
+    gallery,
+    health,
+    paper_row,
+    points,
+    table7,
+)
+from optimizer.report.figures import convergence_figure, fields_figure, gallery_figure, health_figure, pareto_figure
 from optimizer.report.run import Run
 
 #: Packages whose versions the provenance section lists.
@@ -47,7 +56,7 @@ def write_report(runs: list[Run], out: Path) -> Path:
     pareto_figure(pairs, "cmax", "fy", out / "pareto_fy_cmax.svg")
     pareto_figure(pairs, "cpmin", "cl", out / "pareto_cl_cpmin.svg")
     sections = [_fronts(runs, pts), _summary(runs, pts, out), _gallery(runs, pts, out), _fields(runs, pts, out),
-                _health(runs, out), _provenance(runs)]
+                _convergence(runs, out), _health(runs, out), _provenance(runs)]
     _tables(runs, pts, out)
     title = "millfoil report: " + ", ".join(r.name for r in runs)
     now = _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds")
@@ -57,7 +66,8 @@ def write_report(runs: list[Run], out: Path) -> Path:
             f"<style>{_CSS}</style></head><body>\n<h1>{e(title)}</h1>\n"
             f"<p class=\"note\">Generated {e(now)} from the stores (read-only; a running campaign shows what has "
             f"finished). {e(states)}.</p>\n<nav><a href=\"#fronts\">Pareto fronts</a><a href=\"#summary\">Summary"
-            "</a><a href=\"#gallery\">Geometry</a><a href=\"#fields\">Fields</a><a href=\"#health\">Health</a>"
+            "</a><a href=\"#gallery\">Geometry</a><a href=\"#fields\">Fields</a><a href=\"#convergence\">Convergence"
+            "</a><a href=\"#health\">Health</a>"
             "<a href=\"#provenance\">Provenance</a></nav>\n" + "\n".join(sections) + "\n</body></html>\n")
     path = out / "index.html"
     path.write_text(page, encoding="utf-8")
@@ -157,6 +167,37 @@ def _fields(runs: list[Run], pts, out: Path) -> str:
         if notes:
             parts.append(f"<p class=\"note\">{e(' '.join(notes))}</p>")
     return "\n".join(parts)
+
+
+def _convergence(runs: list[Run], out: Path) -> str:
+    """Hypervolume against the CFD spent, every run on one scale (a plain run given beside a surrogate run
+    draws the comparison)."""
+    same = len({tuple(r.labels) for r in runs}) == 1
+    if not same:
+        return ("<h2 id=\"convergence\">Convergence</h2>\n<p class=\"note\">The runs optimise different objectives: "
+                "their hypervolumes are not comparable and are not drawn together.</p>")
+    curves = convergence(runs)
+    convergence_figure(curves, out / "convergence.svg")
+    with open(out / "convergence.csv", "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(["run", "method", "evaluations", "cpu_hours", "hypervolume"])
+        for c in curves:
+            method = c.run.config.get("algorithm", {}).get("method", "nsga2")
+            for n, h, v in zip(c.evaluations, c.cpu_hours, c.hypervolume, strict=True):
+                w.writerow([c.run.name, method, int(n), repr(float(h)), repr(float(v))])
+    rows = "".join(
+        f"<tr><td class=\"l\">{e(c.run.name)}</td><td class=\"l\">"
+        f"{e(c.run.config.get('algorithm', {}).get('method', 'nsga2'))}</td><td>{len(c.evaluations)}</td>"
+        f"<td>{c.cpu_hours[-1] if len(c.cpu_hours) else 0:.2f}</td>"
+        f"<td>{c.hypervolume[-1] if len(c.hypervolume) else 0:.4f}</td></tr>" for c in curves)
+    return ("<h2 id=\"convergence\">Convergence</h2>\n<p class=\"note\">Hypervolume of every feasible design stored "
+            "so far against the CFD evaluations spent (failed ones included; geometrically infeasible designs never "
+            "reach the CFD) and against their CPU hours. One scale for all runs shown: each minimised objective "
+            "mapped so that its best and worst feasible values over these runs are 0 and 1, reference point 1.1. "
+            "Give a plain NSGA-II run beside a surrogate-assisted one to compare them. Table: "
+            "<a href=\"convergence.csv\">convergence.csv</a>.</p>\n" + _img("convergence.svg", "hypervolume against "
+            "CFD evaluations") + "<table><tr><th class=\"l\">run</th><th class=\"l\">method</th><th>CFD evaluations"
+            f"</th><th>CPU hours</th><th>hypervolume</th></tr>{rows}</table>")
 
 
 def _health(runs: list[Run], out: Path) -> str:

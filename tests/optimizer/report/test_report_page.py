@@ -190,3 +190,26 @@ def test_page_renders_in_headless_chromium(report, tmp_path):
                    capture_output=True, text=True, timeout=120, check=True)
     assert shot.stat().st_size > 10_000
     Path(report / "screenshot.txt").write_text(f"rendered by {browser}\n")
+
+
+def test_convergence_of_a_surrogate_run_beside_a_plain_one(tmp_path):
+    from optimizer.campaign.config import load_campaign
+    from optimizer.campaign.driver import run_campaign
+    from optimizer.report.analysis import convergence
+
+    path = tmp_path / "zdt1.yaml"
+    path.write_text("analytic: {problem: zdt1, variables: 6}\nalgorithm: {population: 12, generations: 4, seed: 3}\n"
+                    "execution: {backend: inline}\noutput: {sync: normal}\n")
+    run_campaign(load_campaign(path, ["algorithm.method=surrogate", "algorithm.offspring=6",
+                                      "algorithm.surrogate={pool: 10, training: 40}"]), tmp_path / "surrogate")
+    run_campaign(load_campaign(path, ["algorithm.offspring=6"]), tmp_path / "plain")
+    curves = convergence([load_run(tmp_path / "surrogate"), load_run(tmp_path / "plain")])
+    for c in curves:
+        assert list(c.evaluations) == list(range(1, 31))
+        assert all(b >= a for a, b in zip(c.hypervolume, c.hypervolume[1:], strict=False))   # never decreases
+        assert c.cpu_hours[-1] > 0
+    assert main(["report", str(tmp_path / "surrogate"), str(tmp_path / "plain"), "--out", str(tmp_path / "r")]) == 0
+    rows = list(csv.DictReader((tmp_path / "r" / "convergence.csv").open()))
+    assert {r["method"] for r in rows} == {"surrogate", "nsga2"} and len(rows) == 60
+    assert (tmp_path / "r" / "convergence.svg").is_file()
+    assert 'id="convergence"' in (tmp_path / "r" / "index.html").read_text()
