@@ -13,6 +13,7 @@ Each step returns the offspring and a ``search`` record stored with the generati
     drawn      candidates drawn by the operators (plain: the mating; surrogate: the search on the models)
     screened   of those, the geometrically feasible ones
     batch      designs sent to the CFD
+    fallback   (surrogate campaigns) why this generation took NSGA-II's own offspring instead
   surrogate only (where "screened" counts the distinct candidates meeting the cheap necessary conditions,
   Eq. 21 and, in tool-path mode, Eq. 22, and the full check runs only where the choice reaches):
     checked, rejected  pool designs given the full geometric check, and of those the infeasible
@@ -33,6 +34,10 @@ import numpy as np
 
 from optimizer.campaign.status import EvaluationStatus
 from optimizer.campaign.store import EvaluationRow, Store
+
+#: Designs with values the models need before they choose offspring; before that (a run whose initial
+#: designs nearly all failed) a generation takes NSGA-II's own offspring and its search record says why.
+MIN_TRAINING = 4
 
 
 class FeasibleOffspring:
@@ -103,6 +108,10 @@ class SurrogateOffspring(PlainOffspring):
         a = self.config.algorithm
         t0 = time.perf_counter()
         data, front, evaluated = training_data(self.store, self.problem, g, self.modelled)
+        with_values = int((~data.failed).sum())
+        if with_values < MIN_TRAINING:
+            return self._fallback(algorithm, g, f"the models need {MIN_TRAINING} designs with values, the store "
+                                               f"has {with_values}")
         last = self.store.last_generation()
         theta = (last.search or {}).get("theta") if last is not None else None
         models = Models(self.problem.lower, self.problem.upper, self.problem.objective_labels, self.modelled)
@@ -116,6 +125,9 @@ class SurrogateOffspring(PlainOffspring):
                                front=front, reference=self.store.campaign().reference,
                                evaluated_X=evaluated, seed=_seed(a.seed, g), crossover=a.crossover,
                                mutation=a.mutation, population_size=a.population)
+        if len(proposal.X) == 0:
+            return self._fallback(algorithm, g, f"none of the {proposal.drawn} candidates drawn on the models "
+                                               "is geometrically feasible")
         p = proposal.prediction
         predicted = {}
         for i, x in enumerate(proposal.X):
@@ -128,6 +140,11 @@ class SurrogateOffspring(PlainOffspring):
                   "predicted": predicted, "scale": _training_scale(data),
                   "seconds": {"fit": fit_seconds, "screen": proposal.seconds["screen"]}}
         return Population.new("X", proposal.X), search
+
+    def _fallback(self, algorithm, g: int, why: str):
+        """NSGA-II's own offspring for this generation (the batch size is the same), saying why."""
+        offspring, search = super().ask(algorithm, g)
+        return offspring, {**search, "method": "nsga2", "fallback": why}
 
     def review(self, search: dict, rows: Sequence[EvaluationRow]) -> dict:
         """Add the out-of-sample error of the models on the batch just evaluated (see the module docstring)."""

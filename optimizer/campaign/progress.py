@@ -62,6 +62,8 @@ def search_text(search: dict | None) -> str:
                 f"({search['rejected']} of {search['checked']} checked infeasible)")
     else:
         text = f"drew {search['drawn']}, {search['screened']} feasible, {search['batch']} to CFD"
+    if search.get("fallback"):
+        text += f" (NSGA-II's own offspring: {search['fallback']})"
     error = search.get("error")
     if error:
         text += "; model error " + ", ".join(f"{k} {v:.0%}" for k, v in error.items())

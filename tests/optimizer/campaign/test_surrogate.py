@@ -220,3 +220,14 @@ def test_a_store_of_the_first_schema_gains_the_search_column(tmp_path):
     with Store(path) as migrated:
         assert [g.search for g in migrated.generations()] == [None, None]
     assert sqlite3.connect(path).execute("PRAGMA user_version").fetchone()[0] == 2
+
+
+def test_without_designs_with_values_a_generation_takes_nsga2_offspring(tmp_path):
+    # nine designs in ten fail: the initial population leaves the models too few designs with values
+    config = campaign(tmp_path, ZDT1.replace("variables: 8}", "variables: 8, failures: {random: 0.9, seed: 1}}"),
+                      "algorithm.method=surrogate", "algorithm.offspring=10", "algorithm.generations=3")
+    run_campaign(config, tmp_path / "run")
+    with Store(tmp_path / "run" / STORE_NAME, readonly=True) as s:
+        searched = [g.search for g in s.generations()]
+    assert searched[1]["method"] == "nsga2" and "the models need 4 designs with values" in searched[1]["fallback"]
+    assert "NSGA-II's own offspring" in search_text(searched[1])
