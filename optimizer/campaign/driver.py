@@ -239,6 +239,7 @@ class _Loop:
             a = self.algorithm_config
             self.log(f"drawing a geometrically feasible initial population of {a.population} (seed {a.seed})")
             X0, draws = initial_population(self.problem, a.population, a.seed, a.initial_draws)
+            self.offspring.initial_draws = draws
             self.log(f"initial population: {a.population} feasible of {draws} random designs "
                      f"({a.population / draws:.1%})")
             return self._algorithm(X0), 0

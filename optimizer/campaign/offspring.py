@@ -74,12 +74,16 @@ class PlainOffspring:
     def eliminate_duplicates(self):
         return self.filter
 
+    #: Random designs drawn for the initial population (set by the driver when it draws one).
+    initial_draws: int | None = None
+
     def ask(self, algorithm, g: int):
         self.filter.drawn = self.filter.screened = 0
-        method = self.method if algorithm.is_initialized else "initial"
         offspring = algorithm.ask()
         n = 0 if offspring is None else len(offspring)
-        return offspring, {"method": method, "drawn": self.filter.drawn, "screened": self.filter.screened,
+        if not algorithm.is_initialized:
+            return offspring, {"method": "initial", "drawn": self.initial_draws or n, "screened": n, "batch": n}
+        return offspring, {"method": self.method, "drawn": self.filter.drawn, "screened": self.filter.screened,
                            "batch": n}
 
     def review(self, search: dict, rows: Sequence[EvaluationRow]) -> dict:
