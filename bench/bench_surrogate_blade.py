@@ -1,0 +1,123 @@
+"""Surrogate against plain NSGA-II on the real blade at the coarse level: the hypervolume the surrogate has
+after 1 000 CFD evaluations against plain NSGA-II's after 5 000.
+
+Each run is an ordinary campaign of a paper case (``configs/paper/<case>.yaml``) with ``--set
+mesh.level=coarse`` and the method and seed set on the command line, run with ``millfoil run`` in its own
+directory under ``--out``; a run that was interrupted is continued with ``millfoil resume``, a finished one
+is left alone, so the benchmark can span sessions (commit the stores). Runs go one after another, each on
+the machine's workers (``execution:`` of the case, ``--workers`` to override).
+
+Figure: for each case, the hypervolume of every feasible design stored so far against CFD evaluations
+(failed ones included) — the report's convergence curves (:func:`optimizer.report.analysis.convergence`),
+so all runs of a case share one normalisation and reference point — read at 1 000 evaluations for each
+surrogate seed and at 5 000 (or its last) for plain NSGA-II. Pass: every surrogate seed at least 99 % of
+plain. ``millfoil report <run dirs>`` draws the same curves and the fronts together.
+
+    python bench/bench_surrogate_blade.py                             # design_g1, toolpath_g1
+    python bench/bench_surrogate_blade.py --cases design_g1 --seeds 1 --methods surrogate
+    python bench/bench_surrogate_blade.py --report-only
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import platform
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+PLAIN_BUDGET, SURROGATE_BUDGET = 5000, 1000
+
+
+def run_dirs(out: Path, case: str, methods, seeds) -> list[tuple[str, int, Path]]:
+    runs = [("surrogate", s, out / case / f"surrogate-{s}") for s in seeds if "surrogate" in methods]
+    if "nsga2" in methods:
+        runs.append(("nsga2", 1, out / case / "nsga2-1"))
+    return runs
+
+
+def run_one(case: str, method: str, seed: int, directory: Path, workers: int | None) -> None:
+    from optimizer.campaign.store import STORE_NAME, Store
+
+    cli = [sys.executable, "-m", "optimizer.cli"]
+    store = directory / STORE_NAME
+    execution = [f"execution.workers={workers}"] if workers else []
+    if store.exists():
+        with Store(store, readonly=True) as s:
+            row = s.campaign()
+        if row is not None and row.state == "finished":
+            return
+        if row is not None:
+            command = [*cli, "resume", str(directory), *(a for kv in execution for a in ("--set", kv))]
+            print(" ".join(command[1:]), file=sys.stderr, flush=True)
+            subprocess.run(command, check=True)
+            return
+    overrides = ["mesh.level=coarse", f"algorithm.method={method}", f"algorithm.seed={seed}", *execution]
+    command = [*cli, "run", str(ROOT / "configs" / "paper" / f"{case}.yaml"), "--out", str(directory),
+               *(a for kv in overrides for a in ("--set", kv))]
+    print(" ".join(command[1:]), file=sys.stderr, flush=True)
+    subprocess.run(command, check=True, env={**os.environ, "PYTHONPATH": str(ROOT)})
+
+
+def report(out: Path, cases) -> None:
+    from optimizer.report.analysis import convergence
+    from optimizer.report.run import RunError, load_run
+
+    print(f"# surrogate vs plain NSGA-II, coarse mesh; machine {platform.node()}, {os.cpu_count()} cores")
+    print("| case | run | CFD evaluations | CPU hours | hypervolume at 1 000 / 5 000 | of plain | pass |")
+    print("|---|---|---|---|---|---|---|")
+    for case in cases:
+        runs = []
+        for d in sorted((out / case).glob("*")):
+            try:
+                runs.append(load_run(d))
+            except RunError:
+                continue
+        if not runs:
+            continue
+        curves = convergence(runs)
+        plain = [c for c in curves if c.run.name.startswith("nsga2")]
+        reference = None
+        if plain and len(plain[0].hypervolume):
+            reference = float(plain[0].hypervolume[min(PLAIN_BUDGET, len(plain[0].hypervolume)) - 1])
+        for c in curves:
+            budget = PLAIN_BUDGET if c.run.name.startswith("nsga2") else SURROGATE_BUDGET
+            if not len(c.hypervolume):
+                continue
+            i = min(budget, len(c.hypervolume)) - 1
+            share = "" if reference in (None, 0.0) or c.run.name.startswith("nsga2") else \
+                f"{c.hypervolume[i] / reference:.1%}"
+            verdict = "" if not share else ("yes" if c.hypervolume[i] >= 0.99 * reference else "no")
+            print(f"| {case} | {c.run.name} ({c.run.campaign.state}) | {len(c.evaluations)} | {c.cpu_hours[-1]:.2f} "
+                  f"| {c.hypervolume[i]:.4f} (at {i + 1}) | {share} | {verdict} |")
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--cases", nargs="+", default=["design_g1", "toolpath_g1"])
+    parser.add_argument("--methods", nargs="+", default=["surrogate", "nsga2"], choices=["surrogate", "nsga2"])
+    parser.add_argument("--seeds", type=int, default=3, help="surrogate seeds (plain NSGA-II runs seed 1)")
+    parser.add_argument("--workers", type=int, help="execution.workers of every run")
+    parser.add_argument("--out", type=Path, default=ROOT / "runs" / "examples" / "surrogate-coarse")
+    parser.add_argument("--report-only", action="store_true")
+    args = parser.parse_args()
+    if not args.report_only:
+        # surrogate seed 1 of every case first, plain NSGA-II (5 000 evaluations each) last
+        work = [(case, *item) for case in args.cases
+                for item in run_dirs(args.out, case, args.methods, range(1, args.seeds + 1))]
+        work.sort(key=lambda w: (w[1] == "nsga2", w[2]))
+        for case, method, seed, directory in work:
+            run_one(case, method, seed, directory, args.workers)
+    report(args.out, args.cases)
+    return 0
+
+
+if __name__ == "__main__":
+    np.seterr(all="ignore")
+    sys.exit(main())
