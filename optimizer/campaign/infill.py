@@ -194,38 +194,31 @@ def _min_distance(X: np.ndarray, Y: np.ndarray) -> np.ndarray:
 
 
 # --------------------------------------------------------------------------------------------- pool
-class _ModelProblem:
-    """The pymoo problem the inner NSGA-II optimises: predicted objectives; constraints: geometric
-    feasibility (exact), the predicted CFD constraints, ``p_fail − failure_limit``. Keeps every candidate
-    it is asked about (after the starting population) as the pool."""
+def _on_models(problem, models: Models, failure_limit: float, feasible: Callable[[np.ndarray], np.ndarray]):
+    """The pymoo problem the inner NSGA-II optimises: predicted objectives; constraints: the cheap geometric
+    conditions (exact), the predicted CFD constraints, ``p_fail − failure_limit``. It keeps every candidate
+    it is asked about after the starting population (``drawn``) and those meeting the cheap conditions
+    (``pool``)."""
+    from pymoo.core.problem import Problem
 
-    def __init__(self, problem, models: Models, failure_limit: float, feasible: Callable[[np.ndarray], np.ndarray]):
-        from pymoo.core.problem import Problem
+    class OnModels(Problem):
+        def __init__(self):
+            super().__init__(n_var=problem.n_var, n_obj=len(models.objectives),
+                             n_ieq_constr=len(models.constraints) + 2, xl=problem.lower, xu=problem.upper)
+            self.started, self.drawn, self.pool = False, 0, []
 
-        outer = self
+        def _evaluate(self, X, out, *args, **kwargs):
+            ok = feasible(X)
+            prediction = models.predict(X)
+            out["F"] = prediction.mean
+            out["G"] = np.column_stack([np.where(ok, -1.0, 1.0), prediction.g_mean,
+                                        prediction.p_fail - failure_limit])
+            if self.started:                # the starting population is the campaign's own: not drawn
+                self.drawn += len(X)
+                self.pool.append(X[ok])
+            self.started = True
 
-        class _Inner(Problem):
-            def _evaluate(self, X, out, *args, **kwargs):
-                outer._evaluate(X, out)
-
-        k = len(models.constraints)
-        self.inner = _Inner(n_var=problem.n_var, n_obj=len(models.objectives), n_ieq_constr=1 + k + 1,
-                            xl=problem.lower, xu=problem.upper)
-        self.models, self.failure_limit, self.feasible = models, failure_limit, feasible
-        self.started = False
-        self.drawn = 0
-        self.pool_X: list[np.ndarray] = []
-
-    def _evaluate(self, X: np.ndarray, out: dict) -> None:
-        ok = self.feasible(X)
-        prediction = self.models.predict(X)
-        out["F"] = prediction.mean
-        out["G"] = np.column_stack([np.where(ok, -1.0, 1.0), prediction.g_mean,
-                                    prediction.p_fail - self.failure_limit])
-        if self.started:
-            self.drawn += len(X)
-            self.pool_X.append(X[ok])
-        self.started = True
+    return OnModels()
 
 
 def propose(problem, models: Models, population_X: np.ndarray, *, batch: int, pool: int, exploration: float,
@@ -254,13 +247,13 @@ def propose(problem, models: Models, population_X: np.ndarray, *, batch: int, po
                 cache[X[i].tobytes()] = bool(ok)
         return np.array([cache[x.tobytes()] for x in X], bool)
 
-    inner = _ModelProblem(problem, models, failure_limit, feasible)
+    inner = _on_models(problem, models, failure_limit, feasible)
     generations = max(1, int(np.ceil(pool * batch / population_size)))
     algorithm = NSGA2(pop_size=population_size, sampling=np.asarray(population_X, float),
                       crossover=SBX(eta=crossover.eta, prob=crossover.prob),
                       mutation=PM(eta=mutation.eta, prob_var=mutation.prob), eliminate_duplicates=True)
-    minimize(inner.inner, algorithm, ("n_gen", generations + 1), seed=seed, verbose=False)
-    pool_X = np.vstack(inner.pool_X) if inner.pool_X else np.zeros((0, problem.n_var))
+    minimize(inner, algorithm, ("n_gen", generations + 1), seed=seed, verbose=False)
+    pool_X = np.vstack(inner.pool) if inner.pool else np.zeros((0, problem.n_var))
     pool_X = np.unique(pool_X, axis=0)
     prediction = models.predict(pool_X)
     scaled = models.scale(pool_X)
