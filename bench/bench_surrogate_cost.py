@@ -15,6 +15,7 @@ measured 11–14 s of a converged design, on 2 workers). Target: fit + screen be
 
     python bench/bench_surrogate_cost.py                          # 500 and 2000 stored designs
     python bench/bench_surrogate_cost.py --stored 2000 --config configs/paper/design_g1.yaml
+    python bench/bench_surrogate_cost.py --stored 2000 --training 100 200 400 800   # the cap's cubic cost
 """
 
 from __future__ import annotations
@@ -85,13 +86,14 @@ class _Algorithm:
         self.pop = Population.new("X", X)
 
 
-def measure(config_path: Path, stored: int, seed: int) -> dict:
+def measure(config_path: Path, stored: int, seed: int, training: int | None = None) -> dict:
     from optimizer.campaign.config import load_campaign
     from optimizer.campaign.offspring import SurrogateOffspring
     from optimizer.campaign.problem import make_problem
     from optimizer.campaign.store import STORE_NAME, Store
 
-    config = load_campaign(config_path, ["algorithm.method=surrogate"])
+    config = load_campaign(config_path, ["algorithm.method=surrogate",
+                                         *([f"algorithm.surrogate.training={training}"] if training else [])])
     problem = make_problem(config)
     X = feasible_designs(problem, stored, seed)
     with tempfile.TemporaryDirectory() as tmp, Store(Path(tmp) / STORE_NAME, sync="normal") as store:
@@ -114,12 +116,14 @@ def main() -> int:
     parser.add_argument("--cfd-seconds", type=float, default=13.0, help="wall seconds of one medium evaluation")
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--seed", type=int, default=1)
+    parser.add_argument("--training", type=int, nargs="+", default=[None],
+                        help="training-set caps to compare (default: the configuration's)")
     args = parser.parse_args()
     print(f"# surrogate cost per generation: {args.config.name}; machine {platform.node()}, {os.cpu_count()} cores")
     print("| stored | trained on | pool drawn | feasible | batch | fit s | screen s | batch CFD s | share |")
     print("|---|---|---|---|---|---|---|---|---|")
-    for n in args.stored:
-        m = measure(args.config, n, args.seed)
+    for n, training in ((n, t) for n in args.stored for t in args.training):
+        m = measure(args.config, n, args.seed, training)
         cfd = m["batch"] * args.cfd_seconds / args.workers
         share = (m["fit_s"] + m["screen_s"]) / cfd
         print(f"| {n} | {m['training']} | {m['drawn']} | {m['screened']} | {m['batch']} | {m['fit_s']:.2f} | "
