@@ -122,6 +122,15 @@ def run_check(args: argparse.Namespace) -> int:
     print(f"  {method}: population {a.population}, {a.generations} generations, offspring "
           f"{a.batch}, seed {a.seed}: at most {a.population + (a.generations - 1) * a.batch} evaluations")
     print(f"  execution: {config.execution.backend}; run directory {config.output.directory}")
+    if config.execution.backend in ("inline", "local"):
+        import os
+
+        workers = 1 if config.execution.backend == "inline" else (config.execution.workers or os.cpu_count() or 1)
+        rounds = -(-a.batch // workers)
+        idle = rounds * workers - a.batch
+        print(f"  {a.batch} offspring on {workers} worker(s): {rounds} round(s) per generation"
+              + (f", {idle} worker(s) idle in the last (offspring a multiple of the workers keeps all busy)"
+                 if idle else ""))
     print("\n# resolved campaign")
     print(config.to_yaml(), end="")
     return EXIT_OK

@@ -231,3 +231,14 @@ def test_without_designs_with_values_a_generation_takes_nsga2_offspring(tmp_path
         searched = [g.search for g in s.generations()]
     assert searched[1]["method"] == "nsga2" and "the models need 4 designs with values" in searched[1]["fallback"]
     assert "NSGA-II's own offspring" in search_text(searched[1])
+
+
+def test_check_says_how_the_batch_fills_the_workers(tmp_path, capsys):
+    from optimizer.cli import main
+
+    path = tmp_path / "c.yaml"
+    path.write_text(ZDT1.replace("backend: inline", "backend: local, workers: 4"))
+    assert main(["check", str(path), "--set", "algorithm.method=surrogate", "--set", "algorithm.offspring=6"]) == 0
+    out = capsys.readouterr().out
+    assert "surrogate-assisted NSGA-II" in out and "at most 30 evaluations" in out
+    assert "6 offspring on 4 worker(s): 2 round(s) per generation, 2 worker(s) idle in the last" in out
