@@ -18,8 +18,10 @@ The rule (the reasoning and its evidence: ``docs/decisions/0017-surrogate-infill
    nothing improves.
 3. **Exploration** (the rest): the same greedy step on the *optimistic* point ``mean − κ·std`` (κ = 2):
    designs whose uncertainty could put them on the front, which is where the models learn most.
-4. Slots still empty take the predicted-feasible candidates farthest from every design chosen or
-   evaluated (space filling), so a generation always sends a full batch.
+4. Slots still empty (nothing is predicted to improve the front) follow NSGA-II's order on the
+   predictions: the best constrained non-dominated rank first, within it the candidate farthest from every
+   design chosen or evaluated, so a generation always sends a full batch and still moves towards the
+   predicted front.
 
 Hypervolume is measured as the run measures it: against the run's reference point, in objectives scaled
 so that the front's ideal point is 0 and the reference point 1.
@@ -141,11 +143,14 @@ def choose(prediction: Prediction, front: np.ndarray, reference: np.ndarray | No
             roles.append(role)
             believed = np.vstack([believed, mean[pick]])
             available &= ~_near(X, X[pick][None])
-    # empty slots: space filling among the predicted-feasible candidates (any candidate when none is)
+    # empty slots: NSGA-II's order on the predictions (constrained non-dominated rank; within the best rank
+    # left, the candidate farthest from every design chosen or evaluated)
+    rank = _predicted_rank(prediction, failure_limit)
     while len(chosen) < batch:
-        candidates = np.flatnonzero(available & feasible) if (available & feasible).any() else np.flatnonzero(available)
+        candidates = np.flatnonzero(available)
         if len(candidates) == 0:
             break
+        candidates = candidates[rank[candidates] == rank[candidates].min()]
         taken = np.vstack([evaluated, X[chosen]]) if chosen else evaluated
         distance = _min_distance(X[candidates], taken)
         pick = int(candidates[int(np.argmax(distance))])
@@ -158,17 +163,36 @@ def choose(prediction: Prediction, front: np.ndarray, reference: np.ndarray | No
     return np.array(chosen, int), roles
 
 
+def _predicted_rank(prediction: Prediction, failure_limit: float) -> np.ndarray:
+    """Constrained non-dominated rank of the predictions (pymoo's sorting): predicted-feasible designs by
+    their predicted objectives first, then the rest by their predicted violation (constraints and the
+    failure probability above its limit)."""
+    from pymoo.util.nds.non_dominated_sorting import NonDominatedSorting
+
+    violation = np.clip(prediction.g_mean, 0.0, None).sum(axis=1) + np.clip(prediction.p_fail - failure_limit, 0.0,
+                                                                            None)
+    rank = np.empty(len(violation))
+    ok = violation <= 0.0
+    if ok.any():
+        for r, members in enumerate(NonDominatedSorting().do(prediction.mean[ok])):
+            rank[np.flatnonzero(ok)[members]] = r
+    rank[~ok] = len(violation) + np.argsort(np.argsort(violation[~ok]))
+    return rank
+
+
 def _normalisation(front: np.ndarray, mean: np.ndarray, reference: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
     """The box mapped to the unit square: from the front's ideal point (the predictions' while the run has
-    no feasible design) to the run's hypervolume reference point (without one: the worst of front and
-    predictions plus a tenth of their range), so that improvements are valued as the run's hypervolume
-    values them — a design that extends the front counts as much as one that pushes it forward."""
+    no feasible design) to the run's hypervolume reference point, so that improvements are valued as the
+    run's hypervolume values them — a design that extends the front counts as much as one that pushes it
+    forward. Where the front reaches beyond the reference point (early in a run) the box grows to hold it
+    (its worst values plus a tenth of its range): improving a front nobody has yet brought inside the
+    reference point still counts. Without a reference point: the worst of front and predictions plus a
+    tenth of their range."""
     base = front if len(front) else mean
     lo = base.min(axis=0)
-    if reference is None:
-        worst = np.vstack([base, mean]).max(axis=0)
-        reference = worst + 0.1 * np.maximum(worst - lo, 1e-12)
-    hi = np.asarray(reference, float)
+    worst = np.vstack([base, mean]).max(axis=0) if reference is None or not len(front) else front.max(axis=0)
+    grown = worst + 0.1 * np.maximum(worst - lo, 1e-12)
+    hi = grown if reference is None else np.maximum(np.asarray(reference, float), grown if len(front) else -np.inf)
     span = np.where(hi > lo, hi - lo, np.maximum(np.abs(hi), 1.0))
     return lo, lo + span
 
