@@ -109,6 +109,24 @@ def test_exploration_takes_the_uncertain_designs():
     assert list(index) == [3, 1] and roles == ["exploit", "explore"]
 
 
+def test_a_front_beyond_the_reference_point_can_still_be_improved():
+    X = np.linspace(0, 1, 3)[:, None]
+    mean = [[2.5, 2.5], [3.5, 3.5], [2.9, 2.9]]       # all outside the reference box (1.1, 1.1)
+    index, roles = choose(_prediction(mean), front=np.array([[3.0, 3.0]]), reference=np.array([1.1, 1.1]),
+                          batch=1, exploration=0.0, failure_limit=0.5, X=X, evaluated=np.zeros((0, 1)))
+    assert list(index) == [0] and roles == ["exploit"]
+
+
+def test_slots_nothing_improves_follow_the_predicted_order():
+    X = np.linspace(0, 1, 4)[:, None]
+    mean = [[0.9, 0.9], [0.7, 0.8], [0.8, 0.7], [0.95, 0.95]]   # none improves the front at (0.1, 0.1)
+    g = np.array([[0.0], [0.0], [0.0], [-1.0]])
+    prediction = Prediction(np.array(mean), np.zeros((4, 2)), g, np.zeros((4, 1)), np.zeros(4))
+    index, roles = choose(prediction, front=np.array([[0.1, 0.1]]), reference=np.array([1.1, 1.1]), batch=2,
+                          exploration=0.0, failure_limit=0.5, X=X, evaluated=np.zeros((0, 1)))
+    assert sorted(index) == [1, 2] and roles == ["fill", "fill"]
+
+
 # ------------------------------------------------------------------------------------- plain mode
 class _HalfBox:
     """A stand-in problem whose designs with x1 > 0.3 are geometrically infeasible."""
