@@ -638,6 +638,15 @@ def explain(exc: ValidationError, schema: type[BaseModel], source: Source | None
     """One line per problem, naming the key and what it allows (and ``FILE:LINE:`` with a ``source``);
     the input is shown shortened (:func:`shorten`). Used for every schema, campaigns included."""
     lines = []
+    listed: set[str] = set()
+
+    def allowed(text: str) -> str:
+        """The allowed keys, once per message: a second unknown key of the same section says so."""
+        if text in listed:
+            return "allowed: as above"
+        listed.add(text)
+        return f"allowed: {text}"
+
     for err in exc.errors():
         loc = tuple(p for p in err["loc"] if not (isinstance(p, str) and "[" in p))   # drop validator tags
         error = (err.get("ctx") or {}).get("error")
@@ -646,10 +655,9 @@ def explain(exc: ValidationError, schema: type[BaseModel], source: Source | None
         where = ".".join(str(p) for p in loc)
         at = f"{source.where(loc)}: " if source is not None else ""
         if err["type"] == "unknown_key":
-            lines.append(f"{at}unknown key '{where}'; allowed: {err['ctx']['allowed']}")
+            lines.append(f"{at}unknown key '{where}'; {allowed(err['ctx']['allowed'])}")
         elif err["type"] == "extra_forbidden":
-            allowed = _allowed_keys(schema, loc[:-1])
-            lines.append(f"{at}unknown key '{where}'; allowed: {', '.join(allowed)}")
+            lines.append(f"{at}unknown key '{where}'; {allowed(', '.join(_allowed_keys(schema, loc[:-1])))}")
         elif err["type"] in ("enum", "literal_error"):
             lines.append(f"{at}'{where}' = {shorten(err['input'])} is not allowed; allowed: {err['ctx']['expected']}")
         elif err["type"] == "missing":

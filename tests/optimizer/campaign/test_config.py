@@ -196,3 +196,13 @@ def test_blade_parameters_in_a_campaign_are_named_as_unused(tmp_path):
     with warnings.catch_warnings():
         warnings.simplefilter("error", ConfigWarning)
         load_campaign(None, ["blade.fixed.alpha=25"])      # the way to hold one: no warning
+
+
+def test_several_unknown_keys_of_one_section_list_the_allowed_ones_once(tmp_path):
+    path = tmp_path / "c.yaml"
+    path.write_text("algorithm:\n  pop: 10\n  gens: 3\n")
+    with pytest.raises(ConfigError) as info:
+        load_campaign(path)
+    text = str(info.value)
+    assert "unknown key 'algorithm.pop'; allowed: method, population" in text
+    assert "unknown key 'algorithm.gens'; allowed: as above" in text
