@@ -179,7 +179,8 @@ class AlgorithmConfig(Section):
 
     method: Literal[METHODS] = Field("nsga2", description="nsga2: plain NSGA-II, every offspring to the CFD; "
                                      "surrogate: NSGA-II whose offspring are chosen on Gaussian-process models "
-                                     "fitted from the store (a fifth of the CFD for the same front)")
+                                     "fitted from the store (docs/explanation/campaigns.md: where it reaches the "
+                                     "same front with a fifth of the CFD and where not yet)")
     population: int = Field(100, ge=2, description="designs per generation")
     generations: int = Field(50, ge=1, description="generations, the initial one included")
     offspring: int | None = Field(None, ge=1, description="new designs sent to the CFD per generation (a multiple "
