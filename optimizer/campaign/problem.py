@@ -274,6 +274,7 @@ class BladeProblem(CampaignProblem):
         self._fixed_content = {"mesh": _mesh_dict(config), **base, "version": self.version,
                                "mode": self.space.mode.value, "continuity": self.space.continuity.value}
         self._resolved = config.to_yaml()
+        self._checked: dict[bytes, Feasibility] = {}
 
     def blade_parameters(self, x: np.ndarray) -> dict[str, float]:
         """Every blade parameter (fixed ones included) of design ``x``."""
@@ -282,6 +283,17 @@ class BladeProblem(CampaignProblem):
     stored_parameters = blade_parameters
 
     def check(self, x: np.ndarray) -> Feasibility:
+        """The geometric check of design ``x`` (the machined profile in tool-path mode, about 20 ms), kept
+        for the designs checked recently: the offspring filter, the surrogate's choice and the driver all
+        ask about the same designs."""
+        key = np.asarray(x, float).tobytes()
+        if key not in self._checked:
+            if len(self._checked) >= 4096:
+                self._checked.clear()
+            self._checked[key] = self._check(x)
+        return self._checked[key]
+
+    def _check(self, x: np.ndarray) -> Feasibility:
         from geometry import evaluate_blade
 
         try:
