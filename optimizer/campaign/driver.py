@@ -37,6 +37,7 @@ import numpy as np
 
 from optimizer.campaign.config import CampaignConfig
 from optimizer.campaign.fields import prune_fields, with_fields
+from optimizer.campaign.lock import DriverLock
 from optimizer.campaign.offspring import make_offspring
 from optimizer.campaign.problem import Assessment, CampaignProblem, Feasibility, initial_population, make_problem
 from optimizer.campaign.record import EvaluationRecord
@@ -113,17 +114,54 @@ def run_campaign(config: CampaignConfig, directory: str | Path | None = None, *,
     """
     directory = Path(directory if directory is not None else config.output.directory)
     path = directory / STORE_NAME
-    if path.exists():
-        with Store(path, readonly=True) as existing:
-            if existing.campaign() is not None:
+    created = not directory.exists()
+    with DriverLock(directory, "run", log) as lock:
+        if path.exists():
+            with Store(path, readonly=True) as existing:
+                started = existing.campaign() is not None
+                evaluated = started and bool(existing.count_by_status())
+            if evaluated:
                 raise CampaignError(f"{directory} already holds a campaign: continue it with `millfoil resume "
                                     f"{directory}` or choose another output directory")
-    directory.mkdir(parents=True, exist_ok=True)
-    (directory / "config.yaml").write_text(config.to_yaml())
-    problem = make_problem(config)
-    with Store(path, sync=config.output.sync) as store:
-        store.start_campaign(config.to_yaml(), config.algorithm.seed, problem.version)
-        return _run(config, problem, store, directory, runner, fn, progress, log)
+            if started and log:
+                log(f"{directory} holds a campaign that never evaluated a design: starting afresh")
+            _remove_store(directory)
+        (directory / "config.yaml").write_text(config.to_yaml())
+        problem = make_problem(config)
+        try:
+            with Store(path, sync=config.output.sync) as store:
+                store.start_campaign(config.to_yaml(), config.algorithm.seed, problem.version)
+                return _run(config, problem, store, directory, runner, fn, progress, log)
+        except BaseException:
+            # a run refused or stopped before its first evaluation leaves nothing that blocks a corrected one
+            if _never_evaluated(path):
+                _remove_store(directory)
+                if created:           # nothing of the run is left: neither is its directory
+                    lock.release()
+                    lock.path.unlink(missing_ok=True)
+                    _remove_if_empty(directory)
+            raise
+
+
+def _never_evaluated(path: Path) -> bool:
+    try:
+        with Store(path, readonly=True) as store:
+            return not store.count_by_status()
+    except Exception:        # unreadable: not ours to judge, leave it
+        return False
+
+
+def _remove_if_empty(directory: Path) -> None:
+    try:
+        directory.rmdir()
+    except OSError:
+        pass
+
+
+def _remove_store(directory: Path) -> None:
+    """Remove a run directory's store (with SQLite's side files) and saved configuration."""
+    for name in (STORE_NAME, f"{STORE_NAME}-wal", f"{STORE_NAME}-shm", f"{STORE_NAME}-journal", "config.yaml"):
+        (directory / name).unlink(missing_ok=True)
 
 
 def resume_campaign(directory: str | Path, *, runner=None, fn: Callable[[dict], dict] | None = None,
@@ -135,7 +173,7 @@ def resume_campaign(directory: str | Path, *, runner=None, fn: Callable[[dict], 
     path = directory / STORE_NAME
     if not path.exists():
         raise CampaignError(f"no campaign store in {directory} (expected {path})")
-    with Store(path) as store:
+    with DriverLock(directory, "resume", log), Store(path) as store:
         row = store.campaign()
         if row is None:
             raise CampaignError(f"{path} holds no campaign (it never started)")

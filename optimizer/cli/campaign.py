@@ -196,13 +196,14 @@ def describe_source(config: Path | None) -> str:
 
 def _drive(start, quiet: bool, directory: Path) -> int:
     from optimizer.campaign.driver import CampaignError
+    from optimizer.campaign.lock import DirectoryInUse
     from optimizer.campaign.problem import EmptySpaceError
     from optimizer.campaign.progress import ProgressDisplay, front_table, write_front_csv
 
     display = ProgressDisplay()
     try:
         outcome = start(_Quiet(display) if quiet else display)
-    except (CampaignError, EmptySpaceError) as exc:
+    except (CampaignError, DirectoryInUse, EmptySpaceError) as exc:
         print(f"millfoil: error: {exc}", file=sys.stderr)
         return EXIT_INPUT
     except KeyboardInterrupt:

@@ -1,0 +1,94 @@
+"""One driver per run directory: an operating-system lock that dies with its process.
+
+``millfoil run`` and ``millfoil resume`` hold an exclusive POSIX record lock (``fcntl.lockf``) on
+``RUN/driver.lock`` for as long as they drive the campaign. A second driver on the same directory — a
+resubmitted cluster job whose predecessor still runs, two shells — is refused before it reads or writes
+anything, with the holder's host, process id and start time, which the holder writes into the file. The
+kernel releases the lock when its process ends, however it ends (``kill -9``, a node's out-of-memory
+killer, a job's wall time), so a dead driver never blocks ``millfoil resume``; the file itself stays and
+is rewritten by the next holder.
+
+POSIX locks (not ``flock``) because NFS carries them between nodes (through its lock manager) and a
+forked child does not inherit them: a worker process that outlives its driver holds nothing. On a file
+system that supports no locks at all, the driver says so and runs unguarded.
+"""
+
+from __future__ import annotations
+
+import errno
+import fcntl
+import json
+import os
+import socket
+from datetime import UTC, datetime
+from pathlib import Path
+
+#: The lock file in a run directory.
+LOCK_NAME = "driver.lock"
+
+
+class DirectoryInUse(RuntimeError):
+    """Another live driver holds the run directory."""
+
+
+class DriverLock:
+    """The lock of one run directory (a context manager; :meth:`acquire` / :meth:`release`).
+
+    directory: the run directory (created if missing); command: what the holder is doing (``run``,
+    ``resume``), written into the file for the refusal message; warn: called with one line when the
+    file system refuses locks altogether.
+    """
+
+    def __init__(self, directory: str | Path, command: str, warn=None):
+        self.directory = Path(directory)
+        self.path = self.directory / LOCK_NAME
+        self.command = command
+        self.warn = warn or (lambda _line: None)
+        self._file = None
+
+    def acquire(self) -> DriverLock:
+        self.directory.mkdir(parents=True, exist_ok=True)
+        handle = open(self.path, "a+", encoding="utf-8")      # noqa: SIM115 (held until release)
+        try:
+            fcntl.lockf(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError as exc:
+            if exc.errno in (errno.EACCES, errno.EAGAIN):
+                holder = _holder(handle)
+                handle.close()
+                raise DirectoryInUse(f"{self.directory} is in use by another millfoil driver ({holder}): one "
+                                     "driver per run directory; wait for it to end, or stop it, then "
+                                     f"`millfoil resume {self.directory}`") from None
+            if exc.errno in (errno.ENOLCK, errno.EOPNOTSUPP, errno.ENOSYS):
+                self.warn(f"the file system of {self.directory} supports no file locks: nothing stops a second "
+                          "driver on this run directory")
+            else:
+                handle.close()
+                raise
+        handle.seek(0)
+        handle.truncate()
+        handle.write(json.dumps({"host": socket.gethostname(), "pid": os.getpid(), "command": self.command,
+                                 "since": datetime.now(UTC).isoformat(timespec="seconds")}) + "\n")
+        handle.flush()
+        self._file = handle
+        return self
+
+    def release(self) -> None:
+        if self._file is not None:
+            self._file.close()            # closing the descriptor releases the POSIX lock
+            self._file = None
+
+    def __enter__(self) -> DriverLock:
+        return self.acquire()
+
+    def __exit__(self, *exc) -> None:
+        self.release()
+
+
+def _holder(handle) -> str:
+    """``millfoil run, pid 123 on node7 since 2026-…`` from the lock file (what its holder wrote)."""
+    handle.seek(0)
+    try:
+        info = json.loads(handle.read() or "{}")
+        return (f"millfoil {info['command']}, pid {info['pid']} on {info['host']} since {info['since']}")
+    except (ValueError, KeyError, TypeError):
+        return "holder unknown"
