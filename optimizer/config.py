@@ -20,7 +20,7 @@ import reprlib
 import warnings
 from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
-from typing import Any, Literal, Self, get_args, get_origin, get_type_hints
+from typing import Any, ClassVar, Literal, Self, get_args, get_origin, get_type_hints
 
 import yaml
 from pydantic import (
@@ -428,6 +428,11 @@ SolverConfig = create_model(
 class Config(Section):
     """A whole configuration file."""
 
+    #: The names a bare ``--set NAME=VALUE`` (no dot, not a section) may give as a blade parameter
+    #: (``alpha=25`` is ``blade.parameters.alpha=25``); None: any name (the blade's own check then names an
+    #: unknown parameter). A schema that lists them refuses any other bare name as an unknown key.
+    bare_parameter_names: ClassVar[frozenset[str] | None] = None
+
     blade: BladeConfig = Field(BladeConfig(), description="the blade family and one blade of it, or the "
                                "optimisation space")
     mesh: MeshConfig = Field(MeshConfig(), description="the mesh: resolution level and meshing.MeshSpec overrides")
@@ -613,8 +618,14 @@ def _override_path(key: str, schema: type[Config]) -> tuple[str, ...]:
     if any(not part.strip() for part in path):
         raise ConfigError(f"--set {_short_key(key)}: a key is dotted names, e.g. blade.mode or alpha")
     if len(path) == 1 and path[0] not in schema.model_fields:
+        names = getattr(schema, "bare_parameter_names", None)
+        if names is not None and path[0] not in names:
+            raise ConfigError(f"--set {_short_key(key)}: unknown key '{_short_key(key)}'; allowed: "
+                              f"{', '.join(schema.model_fields)} (a dotted key into one of them, such as "
+                              "mesh.level) or the name of a blade parameter (`millfoil space`)")
         path = ("blade", "parameters", path[0])
     return path
+
 
 
 def set_values(raw: Mapping[str, Any], values: Iterable[tuple[str, Any]], schema: type[Config] = Config
@@ -685,9 +696,9 @@ def range_error(err: Mapping[str, Any], loc: Sequence[Any], schema: type[BaseMod
         return None
     lower, upper = "(-inf", "inf)"
     for m in info.metadata:
-        for name, text in (("gt", "({:g}"), ("ge", "[{:g}"), ("lt", "{:g})"), ("le", "{:g}]")):
+        for name, text in (("gt", "({}"), ("ge", "[{}"), ("lt", "{})"), ("le", "{}]")):
             if getattr(m, name, None) is not None:
-                bound = text.format(getattr(m, name))
+                bound = text.format(_number(getattr(m, name)))
                 lower, upper = (bound, upper) if name[0] == "g" else (lower, bound)
     extra = info.json_schema_extra if isinstance(info.json_schema_extra, dict) else {}
     unit = f" {extra['unit']}" if extra.get("unit") else ""

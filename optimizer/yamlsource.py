@@ -77,13 +77,20 @@ class Source:
 
     def where(self, path: Sequence[Any] = ()) -> str:
         """``FILE:LINE`` of ``path`` (see :meth:`line`), or just ``FILE`` when no line is known; ``--set
-        KEY=VALUE`` when the command line set ``path`` or a section holding it."""
+        KEY=VALUE`` when the command line set ``path`` or a section holding it. For a section in which the
+        command line set keys (an error of the section as a whole, such as two of its keys that disagree):
+        those ``--set`` items, followed by ``(with FILE:LINE)`` where the file gives the section too."""
         path = _normalise(tuple(path))
         for n in range(len(path), 0, -1):
             if path[:n] in self.overridden:
                 return self.overridden[path[:n]]
+        below = [item for p, item in self.overridden.items() if path and len(p) > len(path) and p[:len(path)] == path]
         line = self.line(path)
-        return self.name if line is None else f"{self.name}:{line}"
+        file = self.name if line is None else f"{self.name}:{line}"
+        if below:
+            given = ", ".join(below)
+            return f"{given} (with {file})" if path in self.lines else given
+        return file
 
 
 def _normalise(path: Path_) -> Path_:

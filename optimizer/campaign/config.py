@@ -40,11 +40,13 @@ import re
 import warnings
 from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import Any, Literal
+from typing import Any, ClassVar, Literal
 
 import yaml
 from pydantic import Field, ValidationError, field_validator, model_validator
 
+from geometry import Continuity, Mode
+from geometry.parameters import parameters_of
 from optimizer.campaign.runner import ClusterOptions, ExecutionConfig, walltime_seconds
 from optimizer.config import (
     Config,
@@ -56,6 +58,7 @@ from optimizer.config import (
     load_config,
     override_items,
     set_values,
+    shorten,
 )
 from optimizer.yamlsource import Source
 
@@ -82,6 +85,20 @@ ANALYTIC_CONSTRAINTS: dict[str, tuple[str, ...]] = {"mw1": ("g1",), "mw2": ("g1"
                                                     "mw7": ("g1", "g2")}
 
 DEFAULT_OBJECTIVES = ({"figure": "fy", "sense": "max", "abs": True}, {"figure": "c_max", "sense": "min"})
+
+# Limits of a campaign's size (docs/reference/errors.md, "Campaign values"). A week-long cluster campaign
+# (1 000 workers, 10 minutes per evaluation) is about a million evaluations: the limits leave that room and
+# refuse the typo that asks for a billion before anything is allocated or stored.
+#: Largest ``algorithm.population`` and ``algorithm.offspring``.
+MAX_POPULATION = 10_000
+#: Largest ``algorithm.generations``.
+MAX_GENERATIONS = 10_000
+#: Largest number of evaluations a campaign may ask for: population + (generations - 1) * offspring.
+MAX_EVALUATIONS = 1_000_000
+#: Largest ``algorithm.seed``: the store keeps it as an SQLite integer (signed 64-bit).
+MAX_SEED = 2**63 - 1
+#: Largest ``algorithm.initial_draws``.
+MAX_INITIAL_DRAWS = 100_000
 
 
 class Objective(Section):
@@ -181,18 +198,27 @@ class AlgorithmConfig(Section):
                                      "surrogate: NSGA-II whose offspring are chosen on Gaussian-process models "
                                      "fitted from the store (docs/explanation/campaigns.md: where it reaches the "
                                      "same front with a fifth of the CFD and where not yet)")
-    population: int = Field(100, ge=2, description="designs per generation")
-    generations: int = Field(50, ge=1, description="generations, the initial one included")
-    offspring: int | None = Field(None, ge=1, description="new designs sent to the CFD per generation (a multiple "
-                                  "of the workers keeps them busy); null: the population (nsga2), a fifth of it "
-                                  "rounded up (surrogate)")
+    population: int = Field(100, ge=2, le=MAX_POPULATION, description="designs per generation",
+                            json_schema_extra={"why": "the paper uses 100; a generation of 10 000 CFD designs is "
+                                               "a day of a 1 000-worker cluster"})
+    generations: int = Field(50, ge=1, le=MAX_GENERATIONS, description="generations, the initial one included",
+                             json_schema_extra={"why": "the paper uses 50; the evaluations of the whole campaign "
+                                                f"are limited to {MAX_EVALUATIONS:,} too"})
+    offspring: int | None = Field(None, ge=1, le=MAX_POPULATION, description="new designs sent to the CFD per "
+                                  "generation (a multiple of the workers keeps them busy); null: the population "
+                                  "(nsga2), a fifth of it rounded up (surrogate)",
+                                  json_schema_extra={"why": "10 000 keep 10 000 workers busy; more only queue"})
     surrogate: SurrogateSettings = Field(SurrogateSettings(), description="the surrogate-assisted search "
                                          "(method surrogate)")
-    seed: int = Field(1, ge=0, description="random seed: the same seed and configuration give the same campaign")
+    seed: int = Field(1, ge=0, le=MAX_SEED, description="random seed: the same seed and configuration give the same "
+                      "campaign", json_schema_extra={"why": "the store keeps it as a signed 64-bit SQLite integer "
+                                                     "(at most 2**63 - 1 = 9223372036854775807)"})
     crossover: Crossover = Field(Crossover(), description="pymoo SBX crossover")
     mutation: Mutation = Field(Mutation(), description="pymoo polynomial mutation")
-    initial_draws: int = Field(1000, ge=1, description="rejection-sampling budget per member of the feasible "
-                               "initial population")
+    initial_draws: int = Field(1000, ge=1, le=MAX_INITIAL_DRAWS, description="rejection-sampling budget per "
+                               "member of the feasible initial population",
+                               json_schema_extra={"why": "a space where fewer than one random design in 100 000 "
+                                                  "is feasible is better narrowed (blade.bounds, `millfoil space`)"})
 
     @property
     def batch(self) -> int:
@@ -200,6 +226,11 @@ class AlgorithmConfig(Section):
         if self.offspring is not None:
             return self.offspring
         return self.population if self.method == "nsga2" else -(-self.population // 5)
+
+    @property
+    def evaluations(self) -> int:
+        """Most evaluations the campaign asks for: the initial population and every generation's offspring."""
+        return self.population + (self.generations - 1) * self.batch
 
 
 class OutputConfig(Section):
@@ -209,10 +240,18 @@ class OutputConfig(Section):
     death (SIGKILL, an exception) but possibly not a power cut — for fast analytic runs."""
 
     directory: Path = Field(Path("runs/campaign"), description="the run directory (store, resolved "
-                            "configuration); relative paths: to the working directory")
+                            "configuration); relative paths: to the working directory; not empty")
     sync: Literal["full", "normal"] = Field("full", description="full: every stored evaluation survives a power "
                                             "cut (one fsync per evaluation); normal: it survives the driver's death "
                                             "but possibly not a power cut")
+
+    @field_validator("directory", mode="before")
+    @classmethod
+    def _not_empty(cls, v: Any) -> Any:
+        if v is None or (isinstance(v, str) and not v.strip()):
+            raise ValueError("the run directory is empty: give one, e.g. runs/campaign ('.' for the working "
+                             "directory)")
+        return v
 
 
 class InjectedFailures(Section):
@@ -224,7 +263,7 @@ class InjectedFailures(Section):
                           "design variables whose designs all fail (0.05 is 5 %); 0: none")
     random: float = Field(0.0, ge=0, lt=1, description="probability that any design fails, drawn from its content "
                           "hash (the same design always fails or always passes); 0: none")
-    seed: int = Field(0, ge=0, description="chooses the hidden region's two variables and its place")
+    seed: int = Field(0, ge=0, le=MAX_SEED, description="chooses the hidden region's two variables and its place")
 
     @property
     def any(self) -> bool:
@@ -245,8 +284,9 @@ class AnalyticConfig(Section):
                                               "dtlz2 (two objectives), or mw1, mw2, mw3, mw7 (two objectives with "
                                               "their own constraints g1, g2 <= 0)")
     variables: int = Field(6, ge=2, le=100, description="number of design variables, each in [0, 1]")
-    delay: float = Field(0.0, ge=0, description="seconds each evaluation sleeps (to test parallel execution, "
-                         "timeouts and interruption), s", json_schema_extra={"unit": "s"})
+    delay: float = Field(0.0, ge=0, le=3600, description="seconds each evaluation sleeps (to test parallel "
+                         "execution, timeouts and interruption), s",
+                         json_schema_extra={"unit": "s", "why": "a test of timeouts needs seconds, not hours"})
     failures: InjectedFailures = Field(InjectedFailures(), description="designs that fail as a CFD solve can "
                                        "(a hidden region, random failures)")
 
@@ -254,8 +294,9 @@ class AnalyticConfig(Section):
 class CampaignConfig(Config):
     """A whole campaign file (see the module docstring)."""
 
-    objectives: tuple[Objective, ...] = Field((), description="what the campaign optimises; empty: maximise "
-                                              "|F_Y| and minimise C_max (the paper's pair)")
+    objectives: tuple[Objective, ...] = Field((), description="what the campaign optimises (at least one); left "
+                                              "out: maximise |F_Y| and minimise C_max (the paper's pair), or the "
+                                              "analytic problem's f1 and f2")
     constraints: tuple[FigureConstraint, ...] = Field((), description="bounds on figures that a feasible design "
                                                       "meets")
     convergence: ConvergencePolicy = Field(ConvergencePolicy(), description="what a solve that did not converge "
@@ -266,10 +307,15 @@ class CampaignConfig(Config):
     analytic: AnalyticConfig | None = Field(None, description="an analytic problem in place of the blade (loop "
                                             "tests without CFD); null: the blade")
 
+    #: A bare ``--set NAME=VALUE`` is a blade parameter only if NAME is one (of any family); any other bare name
+    #: is an unknown campaign key (``objectivs=[]`` is a typo, not a parameter).
+    bare_parameter_names: ClassVar[frozenset[str] | None] = frozenset(
+        name for mode in Mode for continuity in Continuity for name in parameters_of(mode, continuity))
+
     @model_validator(mode="before")
     @classmethod
     def _default_objectives(cls, data: Any) -> Any:
-        if isinstance(data, dict) and not data.get("objectives"):
+        if isinstance(data, dict) and "objectives" not in data:
             analytic = data.get("analytic")
             if isinstance(analytic, dict | AnalyticConfig):
                 name = analytic.get("problem", "zdt1") if isinstance(analytic, dict) else analytic.problem
@@ -277,6 +323,15 @@ class CampaignConfig(Config):
             else:
                 data = {**data, "objectives": list(DEFAULT_OBJECTIVES)}
         return data
+
+    @field_validator("objectives", mode="before")
+    @classmethod
+    def _at_least_one(cls, v: Any) -> Any:
+        if v is None or (isinstance(v, list | tuple) and not v):
+            raise ValueError("there is no objective: list at least one ({figure: fy, sense: max, abs: true}), or "
+                             "leave the key out for the default pair (max |F_Y|, min C_max; an analytic problem's "
+                             "f1 and f2)")
+        return v
 
     @field_validator("objectives")
     @classmethod
@@ -343,7 +398,115 @@ def check_campaign(config: CampaignConfig, source: Any) -> CampaignConfig:
                 check()
             except ConfigError as exc:
                 raise ConfigError(f"{source.where(_located(exc, where, config))}: {exc}") from None
+        _check_design_variables(config, source)
+    _check_evaluations(config, source)
+    _check_execution(config, source)
     return config
+
+
+def _check_design_variables(config: CampaignConfig, source: Any) -> None:
+    """A blade campaign needs at least one design variable: a parameter that ``blade.fixed`` leaves free."""
+    space = config.blade.space()
+    if not space.names:
+        b = config.blade
+        raise ConfigError(f"{source.where(('blade', 'fixed'))}: 'blade.fixed': every parameter of {b.mode.value} "
+                          f"{b.continuity.value} blades is fixed, so there is nothing to optimise: a campaign needs "
+                          "at least one design variable (remove a name from blade.fixed; `millfoil space` lists "
+                          "them); to compute one blade, use `millfoil evaluate`")
+
+
+def _check_evaluations(config: CampaignConfig, source: Any) -> None:
+    """The campaign's evaluations (population and every generation's offspring) within :data:`MAX_EVALUATIONS`."""
+    a = config.algorithm
+    if a.evaluations > MAX_EVALUATIONS:
+        raise ConfigError(f"{source.where(('algorithm',))}: 'algorithm': population + (generations - 1) x offspring "
+                          f"= {a.population:,} + {a.generations - 1:,} x {a.batch:,} = {a.evaluations:,} "
+                          f"evaluations, more than the limit of {MAX_EVALUATIONS:,} (a week of a 1 000-worker "
+                          "cluster at 10 minutes per evaluation): lower generations, population or offspring")
+
+
+# Upper limits of the ``execution:`` section's values (their lower ones are those of the fields in
+# :mod:`optimizer.campaign.runner`), in docs/reference/errors.md, "Campaign values": ``{path: (range, upper,
+# unit, why)}``.
+EXECUTION_LIMITS: dict[tuple[str, ...], tuple[str, float, str, str]] = {
+    ("execution", "workers"): ("[1, 10000]", 10_000, "", "worker processes on this machine or jobs on a "
+                               "cluster; more than a week-long campaign of a million evaluations needs"),
+    ("execution", "timeout"): ("(0, 604800] s", 604_800, " s", "an evaluation on the fine mesh takes hours, "
+                               "not a week"),
+    ("execution", "retries"): ("[0, 100]", 100, "", "a design that has lost its worker 100 times kills workers; "
+                               "it is recorded worker_lost"),
+    ("execution", "timeout_grace"): ("[0, 86400] s", 86_400, " s", "a worker still busy a day after its "
+                                     "deadline is restarted"),
+    ("execution", "cluster", "cores"): ("[1, 1024]", 1024, "", "the cores of one job on one node: the largest "
+                                        "nodes have a few hundred"),
+}
+#: Memory of one job (``execution.cluster.memory``), bytes: at least this much per worker process, at most
+#: :data:`MAX_JOB_MEMORY` per job.
+MIN_WORKER_MEMORY = 256 * 2**20
+MAX_JOB_MEMORY = 64 * 2**40
+#: ``execution.cluster`` keys written into the job script's directives: one word each.
+_CLUSTER_WORDS = ("queue", "account", "job_name", "interface")
+#: ``execution.cluster`` keys written into the job script as they are (paths, lines): one line each.
+_CLUSTER_LINES = ("python", "local_directory", "log_directory", "job_extra_directives", "job_script_prologue")
+
+
+def _check_execution(config: CampaignConfig, source: Any) -> None:
+    """The ``execution:`` values within :data:`EXECUTION_LIMITS`, the cluster's memory a size the schedulers
+    accept, its names one word and its lines one line (a newline would end a job-script directive)."""
+    e = config.execution
+
+    def fail(path: tuple, text: str) -> None:
+        raise ConfigError(f"{source.where(path)}: '{'.'.join(path)}' {text}")
+
+    for path, (text, upper, unit, why) in EXECUTION_LIMITS.items():
+        value = getattr(e.cluster, path[-1]) if path[1] == "cluster" else getattr(e, path[-1])
+        if value is not None and value > upper:
+            fail(path, f"= {value:g}{unit} is outside {text}: {why}")
+    c = e.cluster
+    memory = _bytes(c.memory)
+    if memory is None:
+        fail(("execution", "cluster", "memory"), f"= {shorten(c.memory)} is not a memory size: a number and a unit, "
+             "such as 4GiB, 500MB or 16GB (kB, MB, GB, TB in powers of 1000; KiB, MiB, GiB, TiB in powers of 1024)")
+    if not c.worker_processes * MIN_WORKER_MEMORY <= memory <= MAX_JOB_MEMORY:
+        fail(("execution", "cluster", "memory"), f"= {shorten(c.memory)} ({_size(memory)}) is outside "
+             f"[{_size(c.worker_processes * MIN_WORKER_MEMORY)}, {_size(MAX_JOB_MEMORY)}] for "
+             f"{c.worker_processes} worker process(es) per job: a worker needs about 256 MiB (the solver, and "
+             "~5 kB per cell of its mesh); no node has more than 64 TiB")
+    for name in _CLUSTER_WORDS + _CLUSTER_LINES:
+        value = getattr(c, name)
+        for i, text in enumerate(value if isinstance(value, tuple) else (value,)):
+            if text is None:
+                continue
+            path = ("execution", "cluster", name, i) if isinstance(value, tuple) else ("execution", "cluster", name)
+            words = name in _CLUSTER_WORDS
+            if not text.strip() or (words and len(text.split()) != 1) or any(ch in text for ch in "\n\r\0"):
+                fail(path, f"= {shorten(text)} is not {'one word' if words else 'one line'}: it is written into "
+                     f"the job script {'as a directive' if words else 'as it is'}"
+                     + ("; leave the key out for the scheduler's default" if words and not text.strip() else ""))
+    if e.address is not None and (not e.address.strip() or len(e.address.split()) != 1):
+        fail(("execution", "address"), f"= {shorten(e.address)} is not a scheduler address such as "
+             "tcp://10.0.0.1:8786")
+
+
+def _bytes(text: str) -> int | None:
+    """Bytes of a memory size as dask-jobqueue reads it (``4GiB``, ``500MB``, ``16 GB``), or None."""
+    from dask.utils import parse_bytes
+
+    if not isinstance(text, str) or not any(ch.isdigit() for ch in text):
+        return None
+    try:
+        return int(parse_bytes(text))
+    except (ValueError, TypeError, OverflowError):
+        return None
+
+
+def _size(n: float) -> str:
+    """``256 MiB``, ``64 TiB``: a byte count for a message."""
+    for unit in ("B", "KiB", "MiB", "GiB"):
+        if abs(n) < 1024:
+            return f"{n:.4g} {unit}"
+        n /= 1024
+    return f"{n:.4g} TiB"
 
 
 def _located(exc: ConfigError, default: tuple, config: CampaignConfig) -> tuple:

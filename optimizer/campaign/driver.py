@@ -166,9 +166,11 @@ def _remove_store(directory: Path) -> None:
 
 def resume_campaign(directory: str | Path, *, runner=None, fn: Callable[[dict], dict] | None = None,
                     progress: Progress | None = None, execution: dict | None = None,
-                    log: Callable[[str], None] | None = None) -> Outcome:
+                    log: Callable[[str], None] | None = None, overrides: Sequence[str] = ()) -> Outcome:
     """Continue the campaign stored in ``directory`` with its saved configuration (``execution``: changes
-    to the ``execution:`` section, e.g. another backend for the rest of the run)."""
+    to the ``execution:`` section, e.g. another backend for the rest of the run, ``{key: value}``;
+    ``overrides``: the same as ``execution.KEY=VALUE`` texts, as ``--set`` gives them; see
+    :func:`saved_config`)."""
     directory = Path(directory)
     path = directory / STORE_NAME
     if not path.exists():
@@ -177,7 +179,7 @@ def resume_campaign(directory: str | Path, *, runner=None, fn: Callable[[dict], 
         row = store.campaign()
         if row is None:
             raise CampaignError(f"{path} holds no campaign (it never started)")
-        config = saved_config(row.config, execution)
+        config = saved_config(row.config, execution, overrides)
         store.set_sync(config.output.sync)
         problem = make_problem(config)
         if problem.version != row.version and log:
@@ -188,14 +190,25 @@ def resume_campaign(directory: str | Path, *, runner=None, fn: Callable[[dict], 
         return _run(config, problem, store, directory, runner, fn, progress, log)
 
 
-def saved_config(text: str, execution: dict | None = None) -> CampaignConfig:
-    """The campaign configuration saved in a store (its resolved YAML)."""
+def saved_config(text: str, execution: dict | None = None, overrides: Sequence[str] = ()) -> CampaignConfig:
+    """The campaign configuration saved in a store (its resolved YAML). Changes of its ``execution:``
+    section — ``execution`` (``{key: value}``) or ``overrides`` (``execution.KEY=VALUE``, as ``--set`` gives
+    them) — are validated as ``millfoil run`` validates a campaign (:meth:`CampaignConfig.from_mapping`):
+    a bad one is a :class:`~optimizer.config.ConfigError` naming its ``--set`` (exit status 2)."""
     import yaml
 
+    from optimizer.config import ConfigError, shorten
+    from optimizer.yamlsource import Source
+
     data = yaml.safe_load(text)
-    if execution:
-        data["execution"] = {**data.get("execution", {}), **execution}
-    return CampaignConfig.model_validate(data)
+    if not execution and not overrides:
+        return CampaignConfig.model_validate(data)
+    for item in overrides:
+        if not item.partition("=")[0].strip().startswith("execution."):
+            raise ConfigError(f"--set {shorten(item)}: resume changes only execution.KEY=VALUE (the rest of the "
+                              "campaign is fixed by its store)")
+    values = {f"execution.{key}": value for key, value in (execution or {}).items()}
+    return CampaignConfig.from_mapping(data, overrides, values=values, source=Source("the saved campaign"))
 
 
 # --------------------------------------------------------------------------------------------- loop

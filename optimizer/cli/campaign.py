@@ -14,11 +14,9 @@ import sys
 from importlib import resources
 from pathlib import Path
 
-from optimizer.cli.common import EXIT_FAILED, EXIT_INPUT, EXIT_OK
-from optimizer.config import ConfigError
+from optimizer.cli.common import EXIT_FAILED, EXIT_INPUT, EXIT_INTERRUPTED, EXIT_OK
+from optimizer.config import ConfigError, shorten
 
-#: Exit status of an interrupted campaign (128 + SIGINT, as a shell reports Ctrl-C).
-EXIT_INTERRUPTED = 130
 #: The campaign ``run`` and ``check`` use without a CONFIG: a package file (package-data in pyproject.toml).
 QUICKSTART = "optimizer/campaign/quickstart.yaml"
 
@@ -40,7 +38,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     campaign_arguments(run)
-    run.add_argument("--out", type=Path, metavar="RUN", help="run directory (default: the config's output.directory)")
+    run.add_argument("--out", metavar="RUN", help="run directory (default: the config's output.directory)")
     run.add_argument("--quiet", action="store_true", help="no progress display")
     run.set_defaults(run=run_run)
 
@@ -140,8 +138,11 @@ def run_run(args: argparse.Namespace) -> int:
     from optimizer.campaign.driver import run_campaign
     from optimizer.saving import check_output_directory
 
+    if args.out is not None and not args.out.strip():
+        raise ConfigError(f"--out {shorten(args.out)}: the run directory is empty: give one, e.g. --out "
+                          "runs/mine ('.' for the working directory)")
     config = load_campaign_argument(args)
-    directory = args.out or config.output.directory
+    directory = Path(args.out) if args.out is not None else config.output.directory
     # Refused before any cluster starts (exit 2, naming the option): a file in the way, /proc, read-only.
     check_output_directory(directory, "--out" if args.out else "output.directory", files=())
     if args.config is None:
@@ -151,19 +152,30 @@ def run_run(args: argparse.Namespace) -> int:
 
 
 def run_resume(args: argparse.Namespace) -> int:
-    from optimizer.campaign.driver import resume_campaign
+    from optimizer.campaign.driver import resume_campaign, saved_config
+    from optimizer.campaign.store import STORE_NAME, Store
 
-    execution = {}
     for item in args.overrides:
-        key, sep, text = item.partition("=")
-        if not sep or not key.startswith("execution."):
-            raise ConfigError(f"--set {item!r}: resume changes only execution.KEY=VALUE (the rest of the "
+        if not item.partition("=")[0].strip().startswith("execution."):
+            raise ConfigError(f"--set {shorten(item)}: resume changes only execution.KEY=VALUE (the rest of the "
                               "campaign is fixed by its store)")
-        import yaml
-
-        execution[key.removeprefix("execution.")] = yaml.safe_load(text)
+    # The overrides are validated as `run` validates a campaign (errors name the --set), here before the
+    # driver takes the run directory, and again by the driver; a missing, empty or damaged store is the
+    # driver's to report.
+    path = args.directory / STORE_NAME
+    row = None
+    if args.overrides and path.is_file():
+        try:
+            with Store(path, readonly=True) as store:
+                row = store.campaign()
+        except ConfigError:
+            raise
+        except Exception:          # the driver opens it again and says what is wrong
+            row = None
+    if row is not None:
+        saved_config(row.config, overrides=args.overrides)
     return _drive(lambda display: resume_campaign(args.directory, progress=display, log=display.log,
-                                                  execution=execution or None), args.quiet, args.directory)
+                                                  overrides=args.overrides), args.quiet, args.directory)
 
 
 def run_status(args: argparse.Namespace) -> int:
