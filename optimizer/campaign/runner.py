@@ -62,6 +62,7 @@ import uuid
 from abc import ABC, abstractmethod
 from collections import deque
 from collections.abc import Callable, Iterable, Iterator, Mapping
+from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import Any, ClassVar, Literal
 
@@ -461,10 +462,48 @@ class LocalRunner(DaskRunner):
         from distributed import LocalCluster
 
         n = self.config.workers or len(os.sched_getaffinity(0))
-        # dashboard_address=None would still serve the dashboard on port 8787: no dashboard, no fixed port
-        return LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=":0",
-                            scheduler_kwargs={"dashboard": False}, silence_logs=logging.CRITICAL,
-                            env=dict(PINNED_THREADS_ENV))
+        # Ctrl-C in a terminal reaches the whole process group, and only the driver answers it (it stores,
+        # marks the run interrupted and closes the cluster): the workers are started ignoring SIGINT,
+        # which they inherit, and a worker restarted later ignores it from its plugin
+        # the in-process scheduler's INFO lines (a comm closed as a worker stops) are noise to a user
+        logging.getLogger("distributed").setLevel(logging.WARNING)
+        with _ignoring_sigint():
+            # dashboard_address=None would still serve the dashboard on port 8787: no dashboard, no fixed port
+            return LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=":0",
+                                scheduler_kwargs={"dashboard": False}, silence_logs=logging.CRITICAL,
+                                env=dict(PINNED_THREADS_ENV))
+
+    def start(self) -> None:
+        from distributed import WorkerPlugin
+
+        class IgnoreSigint(WorkerPlugin):
+            """The worker process ignores SIGINT (see :meth:`LocalRunner._make_cluster`)."""
+
+            def setup(self, worker=None) -> None:
+                import signal
+                import threading
+
+                if threading.current_thread() is threading.main_thread():
+                    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+        super().start()
+        self.client.register_plugin(IgnoreSigint(), name="millfoil-ignore-sigint")
+
+
+@contextmanager
+def _ignoring_sigint():
+    """SIGINT ignored in this process while the block starts child processes (they inherit it)."""
+    import signal
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
 
 
 class SchedulerRunner(DaskRunner):

@@ -1,6 +1,6 @@
 """The ``millfoil`` command line: a thin layer over plain functions, one module per command group.
 
-Each module of :data:`COMMANDS` has ``register(subparsers)``, which adds its commands with a
+Each module of :data:`COMMAND_MODULES` has ``register(subparsers)``, which adds its commands with a
 ``run(args) -> exit status`` default; a new command group is one module and one entry here.
 :mod:`optimizer.cli.common` holds what they share.
 
@@ -15,24 +15,75 @@ Every error is one line ``millfoil: error: ...`` on stderr.
 from __future__ import annotations
 
 import argparse
+import importlib
+import signal
 import sys
-import warnings
 from collections.abc import Sequence
 
-from optimizer.cli import blade, campaign, evaluate, export, mesh, report, validate
-from optimizer.cli.common import EXIT_FAILED, EXIT_INFEASIBLE, EXIT_INPUT, EXIT_OK, HelpFormatter
-from optimizer.config import ConfigError, ConfigWarning
-from optimizer.saving import WriteFailure
+__all__ = ["COMMAND_MODULES", "build_parser", "commands", "EXIT_FAILED", "EXIT_INFEASIBLE", "EXIT_INPUT",
+           "EXIT_INTERRUPTED", "EXIT_OK", "main"]
 
-__all__ = ["COMMANDS", "build_parser", "EXIT_FAILED", "EXIT_INFEASIBLE", "EXIT_INPUT", "EXIT_OK", "main"]
+#: Exit statuses: success, bad input (configuration, override, file), infeasible blade, a stage failed.
+EXIT_OK, EXIT_INPUT, EXIT_INFEASIBLE, EXIT_FAILED = 0, 2, 3, 4
+#: Exit status of an interrupted command (128 + SIGINT, as a shell reports Ctrl-C; SIGTERM too).
+EXIT_INTERRUPTED = 130
+#: Command modules under :mod:`optimizer.cli`, in the order of ``millfoil --help``.
+COMMAND_MODULES = ("blade", "mesh", "evaluate", "validate", "campaign", "report", "export")
 
-#: Command modules, in the order of ``millfoil --help``.
-COMMANDS = (blade, mesh, evaluate, validate, campaign, report, export)
+
+def commands() -> tuple:
+    """The command modules of :data:`COMMAND_MODULES`, imported."""
+    return tuple(importlib.import_module(f"optimizer.cli.{name}") for name in COMMAND_MODULES)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Run ``millfoil`` with ``argv`` (default: the process's arguments); returns the exit status."""
-    parser = build_parser()
+    """Run ``millfoil`` with ``argv`` (default: the process's arguments); returns the exit status.
+
+    Ctrl-C and SIGTERM (a batch system's wall time, ``kill``) end any command with exit status 130 and one
+    line, never a traceback or death by the signal; a campaign marks its store ``interrupted`` on the way
+    out. While the command modules are imported (the first second) a signal is only noted, and acted on
+    once they are: an interrupt inside a compiled module's initialisation would surface as an ImportError.
+    """
+    pending: list[int] = []
+    previous = _handle_signals(lambda signum, frame: pending.append(signum))
+    try:
+        parser = build_parser()
+        _handle_signals(_raise_interrupt)
+        if pending:
+            raise KeyboardInterrupt(f"signal {pending[0]}")
+        return _main(parser, argv)
+    except KeyboardInterrupt:
+        print("\nmillfoil: interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    finally:
+        for signum, handler in previous.items():
+            signal.signal(signum, handler)
+
+
+def _raise_interrupt(signum, frame):
+    raise KeyboardInterrupt(f"signal {signum}")
+
+
+def _handle_signals(handler) -> dict:
+    """SIGINT and SIGTERM to ``handler``; the previous handlers (none off the main thread: an embedding
+    application's signals are left alone)."""
+    previous = {}
+    for signum in (signal.SIGINT, signal.SIGTERM):
+        try:
+            if signal.getsignal(signum) is signal.SIG_IGN:   # ignored by whoever started us (nohup, `&`)
+                continue
+            previous[signum] = signal.signal(signum, handler)
+        except ValueError:
+            break
+    return previous
+
+
+def _main(parser, argv: Sequence[str] | None) -> int:
+    import warnings
+
+    from optimizer.config import ConfigError, ConfigWarning
+    from optimizer.saving import WriteFailure
+
     args = parser.parse_args(argv)
     if not hasattr(args, "run"):
         parser.print_help()
@@ -52,6 +103,10 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:
     """A :class:`ConfigWarning` as one line ``millfoil: warning: ...`` on stderr; others as Python shows them."""
+    import warnings
+
+    from optimizer.config import ConfigWarning
+
     if issubclass(category, ConfigWarning):
         print(f"millfoil: warning: {message}", file=sys.stderr)
     else:
@@ -59,7 +114,11 @@ def _show_warning(message, category, filename, lineno, file=None, line=None) -> 
 
 
 def build_parser() -> argparse.ArgumentParser:
-    """The ``millfoil`` parser: every command of :data:`COMMANDS` (docs/reference/cli.md is generated from it)."""
+    """The ``millfoil`` parser: every command of :data:`COMMAND_MODULES` (docs/reference/cli.md is generated from
+    it)."""
+
+    from optimizer.cli.common import HelpFormatter
+
     parser = argparse.ArgumentParser(
         prog="millfoil",
         description="Multi-objective shape optimisation of hydraulic blade profiles, designed directly or "
@@ -68,7 +127,7 @@ def build_parser() -> argparse.ArgumentParser:
         formatter_class=HelpFormatter,
     )
     sub = parser.add_subparsers(title="commands", metavar="COMMAND")
-    for module in COMMANDS:
+    for module in commands():
         module.register(sub)
     for command in sub.choices.values():
         command.formatter_class = HelpFormatter   # one help layout for every command, wrapped

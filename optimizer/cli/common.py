@@ -9,10 +9,9 @@ import textwrap
 from pathlib import Path
 
 from meshing import LEVELS
+from optimizer.cli import EXIT_FAILED, EXIT_INFEASIBLE, EXIT_INPUT, EXIT_INTERRUPTED, EXIT_OK  # noqa: F401
 from optimizer.config import Config, load_config
 
-#: Exit statuses: success, bad input (configuration, override, file), infeasible blade, a stage failed.
-EXIT_OK, EXIT_INPUT, EXIT_INFEASIBLE, EXIT_FAILED = 0, 2, 3, 4
 #: Mesh resolution levels a command accepts on ``--level``: :data:`meshing.LEVELS`.
 LEVEL_CHOICES = tuple(LEVELS)
 

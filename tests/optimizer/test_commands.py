@@ -111,12 +111,12 @@ def test_level_is_applied_over_the_configuration_as_a_typed_value():
 
 
 def test_every_command_module_registers_its_commands(capsys):
-    from optimizer.cli import COMMANDS
+    from optimizer.cli import commands
 
     with pytest.raises(SystemExit):
         main(["--help"])
     out = capsys.readouterr().out
-    assert all(callable(module.register) for module in COMMANDS)
+    assert all(callable(module.register) for module in commands())
     for command in ("profile", "space", "mesh", "evaluate", "validate"):
         assert command in out
 
