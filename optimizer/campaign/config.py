@@ -461,7 +461,8 @@ def _check_execution(config: CampaignConfig, source: Any) -> None:
     for path, (text, upper, unit, why) in EXECUTION_LIMITS.items():
         value = getattr(e.cluster, path[-1]) if path[1] == "cluster" else getattr(e, path[-1])
         if value is not None and value > upper:
-            fail(path, f"= {value:g}{unit} is outside {text}: {why}")
+            fail(path, f"= {value:g}{unit} is outside {text}: {why}" if isinstance(value, float)
+                 else f"= {value}{unit} is outside {text}: {why}")
     c = e.cluster
     memory = _bytes(c.memory)
     if memory is None:

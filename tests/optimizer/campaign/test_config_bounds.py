@@ -61,7 +61,7 @@ def written(directory) -> list[str]:
     ("execution.cluster.walltime=lots", ("--set execution.cluster.walltime=lots", "[D-]HH:MM[:SS]")),
     ("execution.cluster.queue=two words", ("'execution.cluster.queue'", "not one word")),
     ("execution.cluster.cores=100000", ("'execution.cluster.cores' = 100000 is outside [1, 1024]",)),
-    ("execution.workers=1000000", ("'execution.workers' = 1e+06 is outside [1, 10000]",)),
+    ("execution.workers=1000000", ("'execution.workers' = 1000000 is outside [1, 10000]",)),
     ("execution.retries=1000000", ("'execution.retries'", "outside [0, 100]")),
     ("execution.timeout=1e12", ("'execution.timeout'", "outside (0, 604800] s")),
     ("execution.workers=true", ("--set execution.workers=true", "not a boolean")),
