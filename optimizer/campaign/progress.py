@@ -7,7 +7,8 @@ job) it writes only the line per finished generation — a log, not a flood.
 
 :func:`status_of` reads a store (read-only, safe while the campaign runs) into a JSON-able summary, and
 :func:`format_status` / :func:`front_table` turn summaries into text for ``millfoil status`` and the end of
-``millfoil run``.
+``millfoil run``; :func:`format_damaged` shows what a damaged store still holds (its
+:class:`~optimizer.campaign.store.StoreInspection`), before ``millfoil status`` says it is damaged.
 """
 
 from __future__ import annotations
@@ -19,7 +20,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import TextIO
 
-from optimizer.campaign.store import STORE_NAME, EvaluationRow, Store
+from optimizer.campaign.store import STORE_NAME, EvaluationRow, Store, StoreInspection
 
 
 def duration(seconds: float | None) -> str:
@@ -109,7 +110,8 @@ def _width() -> int:
 
 # -------------------------------------------------------------------------------------------- status
 def status_of(directory: str | Path) -> dict:
-    """A JSON-able summary of the campaign in ``directory`` read from its store (read-only)."""
+    """A JSON-able summary of the campaign in ``directory`` read from its store (read-only). A damaged
+    store raises :class:`~optimizer.campaign.store.StoreDamaged` (its ``inspection``: what can be read)."""
     from optimizer.campaign.driver import saved_config
 
     with Store(Path(directory) / STORE_NAME, readonly=True) as store:
@@ -185,6 +187,35 @@ def format_status(s: dict) -> str:
     return "\n".join(lines)
 
 
+def format_damaged(directory: str | Path, inspection: StoreInspection) -> str:
+    """``millfoil status`` text of a damaged store: what it still holds, table by table, as far as SQLite,
+    JSON and YAML read it (the one-line error that follows says what is damaged)."""
+    lines = [f"campaign {directory}: damaged store ({inspection.path.name}, {inspection.size} bytes)"]
+    if inspection.error is not None:
+        lines.append(f"  {inspection.error}; {inspection.readable}")
+        return "\n".join(lines)
+    c = inspection.campaign
+    if c:
+        lines.append(f"  state {c['state']}" + (f" ({c['message']})" if c.get("message") else "")
+                     + f"; started {c['started']}" + (f", ended {c['ended']}" if c.get("ended") else "")
+                     + f"; millfoil {c['version']}, seed {c['seed']}")
+    for t in inspection.tables:
+        if not t.present:
+            text = "missing"
+        else:
+            text = f"{t.readable_rows} row{'s' * (t.readable_rows != 1)} readable"
+            if t.invalid:
+                named = ", ".join(f"{row}: {column}" for row, column, _ in t.invalid[:5])
+                more = f" and {len(t.invalid) - 5} more" if len(t.invalid) > 5 else ""
+                text += f"; {len(t.invalid)} value(s) that do not parse ({named}{more})"
+            if not t.complete:
+                text += f"; unreadable after row {t.rows} ({t.error})"
+        if t.name == "evaluations" and inspection.by_status:
+            text += "; by status: " + ", ".join(f"{k} {v}" for k, v in sorted(inspection.by_status.items()))
+        lines.append(f"  {t.name} table: {text}")
+    return "\n".join(lines)
+
+
 def front_table(rows: Sequence[EvaluationRow], labels: Sequence[str]) -> str:
     """The non-dominated designs as a text table: objectives, convergence class, generation, key."""
     if not rows:
@@ -199,14 +230,20 @@ def front_table(rows: Sequence[EvaluationRow], labels: Sequence[str]) -> str:
 
 def write_front_csv(rows: Sequence[EvaluationRow], labels: Sequence[str], path: str | Path) -> Path:
     """The non-dominated designs with every parameter as CSV (objectives, class, generation, key,
-    parameters in configuration units: metres, degrees)."""
+    parameters in configuration units: metres, degrees), written whole or not at all
+    (:func:`optimizer.saving.write_atomic`: an error leaves no file and any earlier one as it was)."""
     import csv
 
+    from optimizer.saving import write_atomic
+
     names = sorted({n for r in rows for n in r.parameters})
-    with open(path, "w", newline="") as fh:
-        w = csv.writer(fh)
-        w.writerow([*labels, "class", "generation", "key", *names])
-        for r in rows:
-            w.writerow([*(repr(r.objectives[k]) for k in labels), r.convergence or "", r.generation + 1, r.key,
-                        *(repr(r.parameters.get(n, "")) for n in names)])
-    return Path(path)
+
+    def write(temporary: Path) -> None:
+        with open(temporary, "w", newline="") as fh:
+            w = csv.writer(fh)
+            w.writerow([*labels, "class", "generation", "key", *names])
+            for r in rows:
+                w.writerow([*(repr(r.objectives[k]) for k in labels), r.convergence or "", r.generation + 1,
+                            r.key, *(repr(r.parameters.get(n, "")) for n in names)])
+
+    return write_atomic(path, write)

@@ -25,10 +25,16 @@ Tables (the full reference with every column is in ``docs/explanation/campaigns.
 
 Values are JSON text where they are structured; floats round-trip exactly (``repr``). Non-finite floats
 are stored as the strings ``"inf"``, ``"-inf"``, ``"nan"`` so that any JSON reader can read the columns.
+
+A damaged store (a truncated or overwritten file, a table dropped, a row whose JSON or configuration YAML
+does not parse) raises :class:`StoreDamaged` — a bad input, exit status 2 — when it is opened or read,
+never a bare SQLite, JSON or YAML error; :func:`inspect_store` says what is damaged and what can still be
+read, table by table.
 """
 
 from __future__ import annotations
 
+import contextlib
 import datetime as _dt
 import json
 import math
@@ -41,6 +47,7 @@ from typing import Any
 import numpy as np
 
 from optimizer.campaign.status import EvaluationStatus
+from optimizer.config import ConfigError
 from solver.convergence import ConvergenceClass
 
 #: File name of the store in the run directory.
@@ -103,6 +110,19 @@ CREATE TABLE IF NOT EXISTS generations (
     search TEXT
 );
 """
+
+
+#: Columns holding JSON text, by table: every table of the store (a store lacking one is damaged).
+JSON_COLUMNS = {
+    "campaign": ("reference",),
+    "evaluations": ("x", "parameters", "objectives", "minimised", "constraints", "figures", "monitors", "seconds"),
+    "generations": ("members", "rank", "crowding", "offspring", "rng_state", "search"),
+}
+TABLES = tuple(JSON_COLUMNS)
+#: The first bytes of every SQLite database file.
+_SQLITE_HEADER = b"SQLite format 3\x00"
+#: Invalid rows a damage message names before it counts the rest.
+_NAMED_ROWS = 3
 
 
 def now() -> str:
@@ -222,12 +242,295 @@ class CampaignRow:
     message: str | None
 
 
+# ------------------------------------------------------------------------------------------ damage
+class StoreDamaged(ConfigError):
+    """A store that cannot be read whole: a truncated or overwritten file, a missing table, a row whose JSON
+    or whose configuration YAML does not parse. A bad input (exit status 2), raised before anything reads
+    or writes past the damage; ``inspection`` (:func:`inspect_store`) says what is damaged and what can
+    still be read, and the message is ``PATH is damaged: WHAT; WHAT CAN STILL BE READ``."""
+
+    def __init__(self, inspection: StoreInspection):
+        self.inspection = inspection
+        super().__init__(f"{inspection.path} is damaged: {inspection.damage}; {inspection.readable}")
+
+
+@dataclass(frozen=True)
+class TableState:
+    """One table as :func:`inspect_store` found it.
+
+    present: the table exists. rows: rows SQLite could read; complete: all of them (else ``error`` is
+    SQLite's reason for stopping). invalid: ``(row, column, why)`` of every value that does not parse,
+    the row named as a user knows it (``design 12``, ``generation 3``, ``the campaign row``).
+    """
+
+    name: str
+    present: bool
+    rows: int = 0
+    complete: bool = True
+    error: str | None = None
+    invalid: tuple[tuple[str, str, str], ...] = ()
+
+    @property
+    def damaged(self) -> bool:
+        return not self.present or not self.complete or bool(self.invalid)
+
+    @property
+    def readable_rows(self) -> int:
+        """Rows read whose every value parses."""
+        return self.rows - len({row for row, _, _ in self.invalid})
+
+
+@dataclass(frozen=True)
+class StoreInspection:
+    """What :func:`inspect_store` found in a store file.
+
+    size: bytes. error: why nothing of it can be read (an empty file, not an SQLite database, an
+    unreadable schema), else None. tables: :data:`TABLES` in order. campaign: the campaign row's plain
+    columns (state, seed, version, started, ended, message) where readable. by_status: evaluations per
+    status where readable.
+    """
+
+    path: Path
+    size: int
+    error: str | None = None
+    tables: tuple[TableState, ...] = ()
+    campaign: dict[str, Any] | None = None
+    by_status: dict[str, int] | None = None
+
+    @property
+    def damaged(self) -> bool:
+        return self.error is not None or any(t.damaged for t in self.tables)
+
+    @property
+    def damage(self) -> str:
+        """What is damaged, in a few words (``the generations table is missing``)."""
+        if self.error is not None:
+            return self.error
+        parts = []
+        for t in self.tables:
+            if not t.present:
+                parts.append(f"the {t.name} table is missing")
+            elif not t.complete:
+                parts.append(f"the {t.name} table cannot be read" + (f" past its row {t.rows}" if t.rows else "")
+                             + f" ({t.error})")
+            for row, column, why in t.invalid[:_NAMED_ROWS]:
+                what = ("the stored campaign configuration is not valid YAML" if column == "config"
+                        else f"{row} has invalid JSON in its {column!r} column")
+                parts.append(f"{what} ({why})")
+            if len(t.invalid) > _NAMED_ROWS:
+                parts.append(f"{len(t.invalid) - _NAMED_ROWS} more invalid value(s) in the {t.name} table")
+        return ", ".join(parts) or "nothing (it reads whole)"
+
+    @property
+    def readable(self) -> str:
+        """What can still be read (``still readable: the campaign table (1 row), ...``)."""
+        if self.error is not None or not any(t.present and t.rows for t in self.tables):
+            hint = (f"; `sqlite3 {self.path} .recover` may salvage rows" if self.error and "malformed" in self.error
+                    else "")
+            return "nothing in it can be read" + hint
+        parts = []
+        for t in self.tables:
+            if not t.present or (not t.rows and not t.complete):
+                continue
+            if not t.complete:
+                count = f"its first {t.rows} row{'s' * (t.rows != 1)}"
+            elif t.name == "campaign" and t.invalid:
+                count = "1 row, not its configuration"
+            elif t.invalid:
+                count = f"{t.readable_rows} of {t.rows} rows"
+            else:
+                count = f"{t.rows} row{'s' * (t.rows != 1)}"
+            parts.append(f"the {t.name} table ({count})")
+        return "still readable: " + ", ".join(parts)
+
+    def to_dict(self) -> dict[str, Any]:
+        """A JSON-able form (``millfoil status --json`` of a damaged store)."""
+        return {"path": str(self.path), "size": self.size, "damaged": self.damaged, "damage": self.damage,
+                "readable": self.readable, "error": self.error, "campaign": self.campaign,
+                "by_status": self.by_status,
+                "tables": {t.name: {"present": t.present, "rows": t.rows, "complete": t.complete, "error": t.error,
+                                    "readable_rows": t.readable_rows,
+                                    "invalid": [{"row": r, "column": c, "why": w} for r, c, w in t.invalid]}
+                           for t in self.tables}}
+
+
+def inspect_store(path: str | Path, cause: str | None = None) -> StoreInspection:
+    """Read a store file as far as it goes, table by table, and say what is damaged (never raises).
+
+    Every row of every table is read and its JSON values and the campaign's configuration YAML are parsed;
+    SQLite's own errors stop a table's reading where they occur. ``cause``: an error already met (what
+    the inspection reports if it finds nothing else).
+    """
+    path = Path(path)
+    try:
+        size = path.stat().st_size
+        with open(path, "rb") as fh:
+            head = fh.read(len(_SQLITE_HEADER))
+    except OSError as exc:
+        return StoreInspection(path, 0, f"it cannot be read ({exc.strerror or exc})")
+    if size == 0:
+        return StoreInspection(path, 0, "the file is empty (0 bytes)")
+    if head != _SQLITE_HEADER:
+        return StoreInspection(path, size, f"the file ({size} bytes) is not an SQLite database")
+    try:
+        db = sqlite3.connect(_readonly_uri(path), uri=True, timeout=30.0)
+    except sqlite3.Error as exc:
+        return StoreInspection(path, size, f"SQLite cannot open it ({exc})")
+    db.row_factory = sqlite3.Row
+    try:
+        try:
+            names = {r[0] for r in db.execute("SELECT name FROM sqlite_master WHERE type='table'")}
+        except sqlite3.DatabaseError as exc:
+            return StoreInspection(path, size, _unreadable(exc))
+        tables = tuple(_inspect_table(db, name) if name in names else TableState(name, False) for name in TABLES)
+        campaign = by_status = None
+        if "campaign" in names:
+            try:
+                row = db.execute("SELECT state, seed, version, started, ended, message FROM campaign WHERE id=1"
+                                 ).fetchone()
+                campaign = None if row is None else dict(row)
+            except sqlite3.DatabaseError:
+                pass
+        if "evaluations" in names:
+            try:
+                by_status = {s: n for s, n in db.execute("SELECT status, COUNT(*) FROM evaluations GROUP BY status")}
+            except sqlite3.DatabaseError:
+                pass
+    finally:
+        db.close()
+    found = StoreInspection(path, size, None, tables, campaign, by_status)
+    if not found.damaged and cause is not None:
+        return StoreInspection(path, size, _unreadable(cause), tables, campaign, by_status)
+    return found
+
+
+def _unreadable(error: object) -> str:
+    """The damage of a file SQLite refuses as a whole."""
+    text = _short(error)
+    if "malformed" in text:
+        return f"SQLite finds it malformed, as a truncated or overwritten file is ({text})"
+    return f"SQLite cannot read it ({text})"
+
+
+def _inspect_table(db: sqlite3.Connection, name: str) -> TableState:
+    """Every row of table ``name`` read and its values parsed (see :func:`inspect_store`)."""
+    rows, invalid = 0, []
+    try:
+        columns = {r[1] for r in db.execute(f"PRAGMA table_info({name})")}
+        parsed = [c for c in JSON_COLUMNS[name] if c in columns]
+        for row in db.execute(f"SELECT rowid AS store_rowid, * FROM {name} ORDER BY rowid"):
+            rows += 1
+            label = _row_label(name, row)
+            for column in parsed:
+                why = _json_problem(row[column])
+                if why is not None:
+                    invalid.append((label, column, why))
+            if name == "campaign":
+                why = _yaml_problem(row["config"])
+                if why is not None:
+                    invalid.append((label, "config", why))
+    except sqlite3.DatabaseError as exc:
+        return TableState(name, True, rows, False, str(exc), tuple(invalid))
+    return TableState(name, True, rows, True, None, tuple(invalid))
+
+
+def _row_label(table: str, row: sqlite3.Row) -> str:
+    try:
+        if table == "evaluations":
+            return f"design {row['store_rowid']}"
+        if table == "generations":
+            return f"generation {int(row['generation']) + 1}"
+    except (IndexError, KeyError, TypeError, ValueError):
+        pass
+    return "the campaign row" if table == "campaign" else f"row {row['store_rowid']}"
+
+
+def _json_problem(text: Any) -> str | None:
+    """Why ``text`` (a JSON column's value; None is allowed) does not parse, or None."""
+    if text is None:
+        return None
+    try:
+        json.loads(text)
+    except (ValueError, TypeError) as exc:
+        return _short(exc)
+    return None
+
+
+def _yaml_problem(text: Any) -> str | None:
+    """Why ``text`` (the stored configuration) does not parse as YAML, or None."""
+    import yaml
+
+    try:
+        yaml.safe_load(text)
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        problem = getattr(exc, "problem", None) or type(exc).__name__
+        return f"line {mark.line + 1}: {problem}" if mark is not None else _short(problem)
+    except (TypeError, ValueError) as exc:
+        return _short(exc)
+    return None
+
+
+def _short(value: Any, limit: int = 80) -> str:
+    text = " ".join(str(value).split())
+    return text if len(text) <= limit else text[:limit - 3] + "..."
+
+
+def _readonly_uri(path: Path) -> str:
+    """The SQLite URI that opens ``path`` read-only (any character in the path quoted)."""
+    return f"{path.absolute().as_uri()}?mode=ro"
+
+
+def _transient(exc: sqlite3.DatabaseError) -> bool:
+    """An SQLite error that says nothing about the file's content (a lock held too long, no permission)."""
+    text = str(exc).lower()
+    return isinstance(exc, sqlite3.OperationalError) and any(
+        word in text for word in ("locked", "busy", "unable to open", "readonly", "read-only", "disk i/o"))
+
+
+def _damage_found(db: sqlite3.Connection) -> bool:
+    """A quick look for damage when a store is opened: every table present, the JSON columns valid (by
+    SQLite's ``json_valid``, confirmed by Python's parser) and the configuration valid YAML. Reads
+    every row once; SQLite's errors propagate."""
+    names = {r[0] for r in db.execute("SELECT name FROM sqlite_master WHERE type='table'")}
+    if not set(TABLES) <= names:
+        return True
+    for table, columns in JSON_COLUMNS.items():
+        have = {r[1] for r in db.execute(f"PRAGMA table_info({table})")}
+        present = [c for c in columns if c in have]
+        where = " OR ".join(f"NOT json_valid({c})" for c in present)
+        for values in db.execute(f"SELECT {', '.join(present)} FROM {table} WHERE {where}"):
+            if any(_json_problem(v) is not None for v in values):
+                return True
+    row = db.execute("SELECT config FROM campaign WHERE id=1").fetchone()
+    return row is not None and _yaml_problem(row[0]) is not None
+
+
+def _check(db: sqlite3.Connection, path: Path) -> None:
+    """StoreDamaged if :func:`_damage_found` finds damage or SQLite cannot read the file (see :class:`Store`)."""
+    try:
+        damaged, cause = _damage_found(db), None
+    except sqlite3.DatabaseError as exc:
+        if _transient(exc):
+            raise
+        damaged, cause = True, str(exc)
+    if damaged:
+        inspection = inspect_store(path, cause)
+        if inspection.damaged:
+            raise StoreDamaged(inspection)
+
+
 class Store:
     """The SQLite store of one run (see the module docstring).
 
     ``Store(path)`` opens (creating the tables if needed) for writing — only the driver does that;
     ``Store(path, readonly=True)`` opens an existing store for reading, safe while the driver runs.
     ``sync``: ``full`` (default) or ``normal``, SQLite's ``synchronous`` (see ``output.sync``).
+
+    An existing store is checked when it is opened, before anything is written to it (every table
+    present, every JSON value and the configuration parse: one pass over the rows in SQLite), and its
+    reads are checked as they go: damage raises :class:`StoreDamaged`, never a bare SQLite, JSON or YAML
+    error, and a damaged store is never "repaired" (a dropped table created again empty) by opening it.
     """
 
     def __init__(self, path: str | Path, *, readonly: bool = False, sync: str = "full"):
@@ -235,8 +538,16 @@ class Store:
         if readonly:
             if not self.path.exists():
                 raise FileNotFoundError(f"no campaign store at {self.path}")
-            self._db = sqlite3.connect(f"file:{self.path}?mode=ro", uri=True, timeout=30.0)
+            self._db = sqlite3.connect(_readonly_uri(self.path), uri=True, timeout=30.0)
+            try:
+                _check(self._db, self.path)
+            except BaseException:
+                self._db.close()
+                raise
         else:
+            if self.path.exists():
+                with contextlib.closing(sqlite3.connect(_readonly_uri(self.path), uri=True, timeout=30.0)) as db:
+                    _check(db, self.path)
             self.path.parent.mkdir(parents=True, exist_ok=True)
             self._db = sqlite3.connect(self.path, timeout=30.0)
             self._db.execute("PRAGMA journal_mode=WAL")
@@ -275,6 +586,21 @@ class Store:
     def __exit__(self, *exc) -> None:
         self.close()
 
+    @contextlib.contextmanager
+    def _reading(self) -> Iterator[None]:
+        """Reads inside: SQLite's errors about the file's content, and values that do not parse, become
+        :class:`StoreDamaged` (a store damaged while it is open, after the check at opening)."""
+        try:
+            yield
+        except StoreDamaged:
+            raise
+        except sqlite3.DatabaseError as exc:
+            if _transient(exc):
+                raise
+            raise StoreDamaged(inspect_store(self.path, str(exc))) from None
+        except (ValueError, TypeError, KeyError) as exc:
+            raise StoreDamaged(inspect_store(self.path, f"a stored value does not parse: {_short(exc)}")) from None
+
     # ---------------------------------------------------------------------------------------- campaign
     def start_campaign(self, config_yaml: str, seed: int, version: str) -> None:
         """Write the campaign row (first run) or mark an existing one ``running`` again (resume)."""
@@ -297,11 +623,12 @@ class Store:
             self._db.execute("UPDATE campaign SET reference=? WHERE id=1", (dumps([float(v) for v in reference]),))
 
     def campaign(self) -> CampaignRow | None:
-        row = self._db.execute("SELECT * FROM campaign WHERE id=1").fetchone()
-        if row is None:
-            return None
-        return CampaignRow(row["config"], row["seed"], row["version"], row["started"], row["ended"],
-                           row["state"], loads(row["reference"]), row["message"])
+        with self._reading():
+            row = self._db.execute("SELECT * FROM campaign WHERE id=1").fetchone()
+            if row is None:
+                return None
+            return CampaignRow(row["config"], row["seed"], row["version"], row["started"], row["ended"],
+                               row["state"], loads(row["reference"]), row["message"])
 
     # ------------------------------------------------------------------------------------- evaluations
     def add(self, row: EvaluationRow) -> None:
@@ -320,29 +647,32 @@ class Store:
                  row.submitted, row.finished))
 
     def get(self, key: str) -> EvaluationRow | None:
-        row = self._db.execute("SELECT * FROM evaluations WHERE key=?", (key,)).fetchone()
-        return None if row is None else _evaluation(row)
+        with self._reading():
+            row = self._db.execute("SELECT * FROM evaluations WHERE key=?", (key,)).fetchone()
+            return None if row is None else _evaluation(row)
 
     def get_many(self, keys: Iterable[str]) -> dict[str, EvaluationRow]:
         """``{key: row}`` for those of ``keys`` that are stored."""
         keys = list(dict.fromkeys(keys))
         found: dict[str, EvaluationRow] = {}
-        for i in range(0, len(keys), 500):        # SQLite's host-parameter limit
-            chunk = keys[i:i + 500]
-            marks = ",".join("?" * len(chunk))
-            for row in self._db.execute(f"SELECT * FROM evaluations WHERE key IN ({marks})", chunk):
-                found[row["key"]] = _evaluation(row)
+        with self._reading():
+            for i in range(0, len(keys), 500):        # SQLite's host-parameter limit
+                chunk = keys[i:i + 500]
+                marks = ",".join("?" * len(chunk))
+                for row in self._db.execute(f"SELECT * FROM evaluations WHERE key IN ({marks})", chunk):
+                    found[row["key"]] = _evaluation(row)
         return found
 
     def evaluations(self, generation: int | None = None) -> Iterator[EvaluationRow]:
         """Stored evaluations in the order they finished (optionally of one generation)."""
-        if generation is None:
-            rows = self._db.execute("SELECT * FROM evaluations ORDER BY finished, rowid")
-        else:
-            rows = self._db.execute("SELECT * FROM evaluations WHERE generation=? ORDER BY finished, rowid",
-                                    (generation,))
-        for row in rows:
-            yield _evaluation(row)
+        with self._reading():
+            if generation is None:
+                rows = self._db.execute("SELECT * FROM evaluations ORDER BY finished, rowid")
+            else:
+                rows = self._db.execute("SELECT * FROM evaluations WHERE generation=? ORDER BY finished, rowid",
+                                        (generation,))
+            for row in rows:
+                yield _evaluation(row)
 
     def front(self) -> list[EvaluationRow]:
         """The non-dominated designs among every stored feasible accepted design (``minimised``: smaller
@@ -355,8 +685,9 @@ class Store:
 
     def count_by_status(self, generation: int | None = None) -> dict[str, int]:
         where, args = ("WHERE generation=?", (generation,)) if generation is not None else ("", ())
-        rows = self._db.execute(f"SELECT status, COUNT(*) FROM evaluations {where} GROUP BY status", args)
-        return {status: n for status, n in rows}
+        with self._reading():
+            rows = self._db.execute(f"SELECT status, COUNT(*) FROM evaluations {where} GROUP BY status", args)
+            return {status: n for status, n in rows}
 
     # ------------------------------------------------------------------------------------- generations
     def add_generation(self, row: GenerationRow) -> None:
@@ -370,11 +701,13 @@ class Store:
                  json.dumps(row.rng_state), row.finished, None if row.search is None else dumps(row.search)))
 
     def generations(self) -> list[GenerationRow]:
-        return [_generation(r) for r in self._db.execute("SELECT * FROM generations ORDER BY generation")]
+        with self._reading():
+            return [_generation(r) for r in self._db.execute("SELECT * FROM generations ORDER BY generation")]
 
     def last_generation(self) -> GenerationRow | None:
-        row = self._db.execute("SELECT * FROM generations ORDER BY generation DESC LIMIT 1").fetchone()
-        return None if row is None else _generation(row)
+        with self._reading():
+            row = self._db.execute("SELECT * FROM generations ORDER BY generation DESC LIMIT 1").fetchone()
+            return None if row is None else _generation(row)
 
 
 def non_dominated(F: np.ndarray, chunk: int = 256) -> np.ndarray:

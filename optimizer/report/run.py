@@ -4,6 +4,9 @@ Works on a campaign that is still running (SQLite WAL: readers never block the d
 finished. Each stored design gets a **design number**: the order in which the store received it (the
 SQLite ``rowid`` of its ``evaluations`` row, 1, 2, …), which never changes once the design is stored;
 ``millfoil export RUN --id N`` and the report use it.
+
+A damaged store raises :class:`~optimizer.campaign.store.StoreDamaged` (a bad input, exit status 2, its
+message saying what is damaged and what can still be read) before anything is written.
 """
 
 from __future__ import annotations
@@ -16,11 +19,20 @@ from typing import Any
 
 import yaml
 
-from optimizer.campaign.store import STORE_NAME, CampaignRow, EvaluationRow, GenerationRow, Store
+from optimizer.campaign.store import (
+    STORE_NAME,
+    CampaignRow,
+    EvaluationRow,
+    GenerationRow,
+    Store,
+    StoreDamaged,
+    inspect_store,
+)
 
 
 class RunError(ValueError):
-    """A run directory without a readable campaign store, or a design it does not hold."""
+    """A run directory without a campaign store or whose store SQLite cannot open (a lock held too long, no
+    permission), or a design it does not hold. A damaged store is :class:`StoreDamaged`."""
 
 
 @dataclass(frozen=True)
@@ -100,7 +112,8 @@ class Run:
 
 
 def load_run(directory: str | Path) -> Run:
-    """Read a run directory's store (read-only). Raises :class:`RunError` if there is none."""
+    """Read a run directory's store (read-only). Raises :class:`RunError` if there is none or it cannot be
+    opened, :class:`StoreDamaged` if it is damaged."""
     directory = Path(directory)
     path = directory / STORE_NAME
     if not path.exists():
@@ -112,6 +125,9 @@ def load_run(directory: str | Path) -> Run:
             generations = tuple(store.generations())
         numbers = _design_numbers(path)
     except sqlite3.Error as exc:
+        inspection = inspect_store(path)
+        if inspection.damaged:      # damaged between the store's check and the read of its design numbers
+            raise StoreDamaged(inspection) from None
         raise RunError(f"{path}: cannot read the campaign store: {exc}") from None
     if campaign is None:
         raise RunError(f"{path}: the store holds no campaign yet")
