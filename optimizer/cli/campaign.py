@@ -179,12 +179,19 @@ def run_resume(args: argparse.Namespace) -> int:
 
 
 def run_status(args: argparse.Namespace) -> int:
-    from optimizer.campaign.progress import format_status, status_of
+    from optimizer.campaign.progress import format_damaged, format_status, status_of
+    from optimizer.campaign.store import StoreDamaged
 
     try:
         summary = status_of(args.directory)
     except FileNotFoundError as exc:
         raise ConfigError(str(exc)) from None
+    except StoreDamaged as exc:
+        # what can still be read first, as a database tool shows it; then the one-line error (exit 2)
+        inspection = exc.inspection
+        print(json.dumps({"directory": str(args.directory), "damaged": inspection.to_dict()}, indent=2)
+              if args.json else format_damaged(args.directory, inspection), flush=True)
+        raise
     print(json.dumps(summary, indent=2) if args.json else format_status(summary))
     return EXIT_OK
 
@@ -228,7 +235,13 @@ def _drive(start, quiet: bool, directory: Path) -> int:
         print(f"millfoil: error: the campaign failed: {type(exc).__name__}: {exc}; what finished is stored in "
               f"{directory}", file=sys.stderr)
         return EXIT_FAILED
-    csv_path = write_front_csv(outcome.front, outcome.labels, Path(outcome.directory) / "front.csv")
+    try:
+        csv_path = write_front_csv(outcome.front, outcome.labels, Path(outcome.directory) / "front.csv")
+    except OSError as exc:       # written whole or not at all: the store has everything
+        print(f"millfoil: error: the campaign finished and is stored in {outcome.directory}, but front.csv could "
+              f"not be written: {exc.strerror or exc}; millfoil report {outcome.directory} reads the store",
+              file=sys.stderr)
+        return EXIT_FAILED
     print(f"campaign finished: {outcome.generations} generations; results in {outcome.directory}/ "
           f"(campaign.sqlite, config.yaml, {csv_path.name})")
     print(f"non-dominated designs ({len(outcome.front)}):")
