@@ -85,6 +85,8 @@ def check_output_directory(path: str | Path, option: str, files: Iterable[str] =
         if not path.is_dir():
             raise OutputError(f"{option} {path} exists and is not a directory")
         for name in files:
+            if (path / name).is_dir():
+                raise OutputError(f"{option} {path}: {path / name} is a directory; nothing was written")
             if (path / name).exists() and not (path / name).is_file():
                 raise OutputError(f"{option} {path}: {path / name} exists and is not a regular file")
         _check_writable_directory(path, option, path)

@@ -1,8 +1,9 @@
 """``millfoil export``: the tool path of a design as an NC program (Sinumerik, LinuxCNC), DXF or CSV.
 
-Exit status: 0 written, 2 refused (no store, unknown design, a design-mode or analytic campaign, a failed or
-infeasible design, a bad option), 4 the file could not be written or the program read back deviates from
-the tool path by more than 1 µm (never expected: it would be a bug).
+Exit status: 0 written, 2 refused (no store, a damaged store, unknown design, a design-mode or analytic
+campaign, a failed or infeasible design, a bad option, an output path that is a directory), 4 the file
+could not be written (then none is: it is written under a temporary name and renamed when whole) or the
+program read back deviates from the tool path by more than 1 µm (never expected: it would be a bug).
 """
 
 from __future__ import annotations
@@ -67,6 +68,7 @@ def run_export(args: argparse.Namespace) -> int:
     from optimizer.export import FORMATS, ExportError, NcSettings
     from optimizer.export.source import default_output
     from optimizer.report.run import RunError
+    from optimizer.saving import write_atomic
 
     try:
         settings = NcSettings(feed=args.feed, plunge_feed=args.plunge_feed, spindle=args.spindle, tool=args.tool,
@@ -97,11 +99,15 @@ def run_export(args: argparse.Namespace) -> int:
         sys.stdout.write(text)
         return EXIT_OK
     target = Path(target)
+    if target.is_dir() or (target.exists() and not target.is_file()):
+        what = "a directory" if target.is_dir() else "not a regular file"
+        print(f"millfoil: error: --out {target} is {what}; nothing was written", file=sys.stderr)
+        return EXIT_INPUT
     try:
-        target.parent.mkdir(parents=True, exist_ok=True)
-        target.write_text(text)
+        # under a temporary name beside it, renamed when whole: a full disk leaves no truncated file
+        write_atomic(target, lambda path: path.write_text(text))
     except OSError as exc:
-        print(f"millfoil: error: cannot write {target}: {exc.strerror or exc}", file=sys.stderr)
+        print(f"millfoil: error: cannot write {target}: {exc.strerror or exc}; nothing was written", file=sys.stderr)
         return EXIT_FAILED
     note = f"; read back: within {worst * 1e3:.4f} µm of the optimiser's tool path" if fmt.nc else ""
     print(f"wrote {target} ({args.format}, tool radius {path.radius:g} mm){note}")

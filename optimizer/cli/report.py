@@ -1,6 +1,7 @@
 """``millfoil report``: a campaign's report (static HTML page, SVG figures, CSV tables) from its store.
 
-Exit status: 0 written, 2 bad input (no store in a run directory), 4 the report could not be written.
+Exit status: 0 written, 2 bad input (no store in a run directory, a damaged store, an output path that is a
+directory or cannot be written), 4 the report could not be written (then no file of it is).
 """
 
 from __future__ import annotations
@@ -42,7 +43,8 @@ def run_report(args: argparse.Namespace) -> int:
         return EXIT_INPUT
     out = args.out or args.directories[0] / "report"
     try:
-        page = write_report(runs, out)
+        # every path checked first (OutputError: exit 2); then all files or none (WriteFailure: exit 4)
+        page = write_report(runs, out, "--out" if args.out else "the report directory")
     except OSError as exc:
         print(f"millfoil: error: cannot write the report in {out}: {exc.strerror or exc}", file=sys.stderr)
         return EXIT_FAILED

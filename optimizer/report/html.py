@@ -2,6 +2,12 @@
 
 The page needs no network (no script, no CDN, no web font: inline CSS, figures as relative ``<img>``), and
 every string that comes from a store or a configuration is escaped (:func:`html.escape`).
+
+:func:`write_report` first computes the page and names every file it will write, checks each of their
+paths (:func:`optimizer.saving.check_output_directory`: a path that is a directory is refused, exit status
+2, before anything is drawn), then writes them all under temporary names and renames them onto their names
+together (:func:`optimizer.saving.write_all`): a failure part-way — a full disk, a figure that cannot be
+drawn — leaves no file and the previous report as it was (WriteFailure, exit status 4).
 """
 
 from __future__ import annotations
@@ -13,6 +19,8 @@ import os
 import platform
 import sys
 import zipfile
+from collections.abc import Callable
+from functools import partial
 from importlib import metadata
 from pathlib import Path
 
@@ -29,6 +37,10 @@ from optimizer.report.analysis import (
 )
 from optimizer.report.figures import convergence_figure, fields_figure, gallery_figure, health_figure, pareto_figure
 from optimizer.report.run import Run
+from optimizer.saving import check_output_directory, write_all
+
+#: The files of a report, by name: each writes its file at the path it is given (a temporary name).
+Files = dict[str, Callable[[Path], object]]
 
 #: Packages whose versions the provenance section lists.
 PACKAGES = ("millfoil", "numpy", "scipy", "shapely", "pymoo", "gmsh", "matplotlib", "dask", "distributed", "ezdxf")
@@ -48,16 +60,18 @@ def e(value) -> str:
     return html.escape(str(value), quote=True)
 
 
-def write_report(runs: list[Run], out: Path) -> Path:
-    """Write ``out/index.html`` with its figures and tables for ``runs``; returns the page's path."""
-    out.mkdir(parents=True, exist_ok=True)
+def write_report(runs: list[Run], out: Path, option: str = "--out") -> Path:
+    """Write ``out/index.html`` with its figures and tables for ``runs``, all or none of them (see the module
+    docstring; ``option`` names ``out`` in an OutputError); returns the page's path."""
+    out = Path(out)
+    files: Files = {}
     pts = [points(r) for r in runs]
     pairs = list(zip(runs, pts, strict=True))
-    pareto_figure(pairs, "cmax", "fy", out / "pareto_fy_cmax.svg")
-    pareto_figure(pairs, "cpmin", "cl", out / "pareto_cl_cpmin.svg")
-    sections = [_fronts(runs, pts), _summary(runs, pts, out), _gallery(runs, pts, out), _fields(runs, pts, out),
-                _convergence(runs, out), _health(runs, out), _provenance(runs)]
-    _tables(runs, pts, out)
+    files["pareto_fy_cmax.svg"] = partial(pareto_figure, pairs, "cmax", "fy")
+    files["pareto_cl_cpmin.svg"] = partial(pareto_figure, pairs, "cpmin", "cl")
+    sections = [_fronts(runs, pts), _summary(runs, pts), _gallery(runs, pts, files), _fields(runs, pts, files),
+                _convergence(runs, files), _health(runs, files), _provenance(runs)]
+    _tables(runs, pts, files)
     title = "millfoil report: " + ", ".join(r.name for r in runs)
     now = _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds")
     states = "; ".join(f"{r.name}: {r.campaign.state}, {len(r.designs)} designs, {len(r.generations)} generations"
@@ -69,9 +83,10 @@ def write_report(runs: list[Run], out: Path) -> Path:
             "</a><a href=\"#gallery\">Geometry</a><a href=\"#fields\">Fields</a><a href=\"#convergence\">Convergence"
             "</a><a href=\"#health\">Health</a>"
             "<a href=\"#provenance\">Provenance</a></nav>\n" + "\n".join(sections) + "\n</body></html>\n")
-    path = out / "index.html"
-    path.write_text(page, encoding="utf-8")
-    return path
+    files["index.html"] = lambda path: path.write_text(page, encoding="utf-8")     # renamed last
+    check_output_directory(out, option, files=list(files))
+    write_all((out / name, write) for name, write in files.items())
+    return out / "index.html"
 
 
 def _img(src: str, alt: str) -> str:
@@ -97,7 +112,7 @@ def _fronts(runs: list[Run], pts) -> str:
             + _img("pareto_cl_cpmin.svg", "C_L against |C_p,min|"))
 
 
-def _summary(runs: list[Run], pts, out: Path) -> str:
+def _summary(runs: list[Run], pts) -> str:
     head = "".join(f"<th>{e(label)}</th>" for label, _, _ in TABLE7_COLUMNS)
     rows = []
     for r, p in zip(runs, pts, strict=True):
@@ -120,7 +135,7 @@ def _summary(runs: list[Run], pts, out: Path) -> str:
             f"<table><tr><th class=\"l\">run</th>{head}</tr>{''.join(rows)}</table>")
 
 
-def _gallery(runs: list[Run], pts, out: Path) -> str:
+def _gallery(runs: list[Run], pts, files: Files) -> str:
     parts = ["<h2 id=\"gallery\">Geometry along the front</h2>\n<p class=\"note\">About six designs spread "
              "along each run's |F_Y|–C_max front (Fig. 12–13), rebuilt from their stored parameters. Numbers are "
              "design numbers (<code>millfoil export RUN --id N</code>).</p>"]
@@ -130,12 +145,12 @@ def _gallery(runs: list[Run], pts, out: Path) -> str:
         if not chosen:
             parts.append("<p>No feasible design yet.</p>")
             continue
-        gallery_figure(r, chosen, out / f"gallery_{k}.svg")
+        files[f"gallery_{k}.svg"] = partial(gallery_figure, r, chosen)
         parts.append(_img(f"gallery_{k}.svg", f"blades of {r.name}"))
     return "\n".join(parts)
 
 
-def _fields(runs: list[Run], pts, out: Path) -> str:
+def _fields(runs: list[Run], pts, files: Files) -> str:
     parts = ["<h2 id=\"fields\">Flow fields of selected designs</h2>\n<p class=\"note\">Up to three designs of "
              "each run's |F_Y|–C_max front (its ends and middle) whose fields the campaign kept (<code>RUN/fields/"
              "</code>: the wall distribution and |U| sampled around the blade, written by the worker and kept "
@@ -153,7 +168,7 @@ def _fields(runs: list[Run], pts, out: Path) -> str:
             except (OSError, ValueError, KeyError, zipfile.BadZipFile) as exc:      # a file being replaced, or damaged
                 unreadable.append(f"#{point.design.number} ({type(exc).__name__})")
         if chosen:
-            fields_figure(chosen, out / f"fields_{k}.svg")
+            files[f"fields_{k}.svg"] = partial(fields_figure, chosen)
             parts.append(_img(f"fields_{k}.svg", f"fields of designs of {r.name}"))
         notes = []
         if missing:
@@ -169,7 +184,7 @@ def _fields(runs: list[Run], pts, out: Path) -> str:
     return "\n".join(parts)
 
 
-def _convergence(runs: list[Run], out: Path) -> str:
+def _convergence(runs: list[Run], files: Files) -> str:
     """Hypervolume against the CFD spent, every run on one scale (a plain run given beside a surrogate run
     draws the comparison)."""
     same = len({tuple(r.labels) for r in runs}) == 1
@@ -177,14 +192,18 @@ def _convergence(runs: list[Run], out: Path) -> str:
         return ("<h2 id=\"convergence\">Convergence</h2>\n<p class=\"note\">The runs optimise different objectives: "
                 "their hypervolumes are not comparable and are not drawn together.</p>")
     curves = convergence(runs)
-    convergence_figure(curves, out / "convergence.svg")
-    with open(out / "convergence.csv", "w", newline="") as fh:
-        w = csv.writer(fh)
-        w.writerow(["run", "method", "evaluations", "cpu_hours", "hypervolume"])
-        for c in curves:
-            method = c.run.config.get("algorithm", {}).get("method", "nsga2")
-            for n, h, v in zip(c.evaluations, c.cpu_hours, c.hypervolume, strict=True):
-                w.writerow([c.run.name, method, int(n), repr(float(h)), repr(float(v))])
+    files["convergence.svg"] = partial(convergence_figure, curves)
+
+    def write_csv(path: Path) -> None:
+        with open(path, "w", newline="") as fh:
+            w = csv.writer(fh)
+            w.writerow(["run", "method", "evaluations", "cpu_hours", "hypervolume"])
+            for c in curves:
+                method = c.run.config.get("algorithm", {}).get("method", "nsga2")
+                for n, h, v in zip(c.evaluations, c.cpu_hours, c.hypervolume, strict=True):
+                    w.writerow([c.run.name, method, int(n), repr(float(h)), repr(float(v))])
+
+    files["convergence.csv"] = write_csv
     rows = "".join(
         f"<tr><td class=\"l\">{e(c.run.name)}</td><td class=\"l\">"
         f"{e(c.run.config.get('algorithm', {}).get('method', 'nsga2'))}</td><td>{len(c.evaluations)}</td>"
@@ -200,11 +219,11 @@ def _convergence(runs: list[Run], out: Path) -> str:
             f"</th><th>CPU hours</th><th>hypervolume</th></tr>{rows}</table>")
 
 
-def _health(runs: list[Run], out: Path) -> str:
+def _health(runs: list[Run], files: Files) -> str:
     parts = ["<h2 id=\"health\">Campaign health</h2>"]
     for k, r in enumerate(runs):
         h = health(r)
-        health_figure(h, out / f"health_{k}.svg")
+        files[f"health_{k}.svg"] = partial(health_figure, h)
         total = sum(h.cache_hits)
         parts.append(f"<h3>{e(r.name)}</h3><p class=\"note\">{len(r.designs)} designs stored, {total} cache hits; "
                      f"per generation: <a href=\"generations_{k}.csv\">generations_{k}.csv</a>.</p>"
@@ -235,8 +254,15 @@ def _provenance(runs: list[Run]) -> str:
     return "\n".join(parts)
 
 
-def _tables(runs: list[Run], pts, out: Path) -> None:
-    with open(out / "summary.csv", "w", newline="") as fh:
+def _tables(runs: list[Run], pts, files: Files) -> None:
+    files["summary.csv"] = partial(_summary_csv, runs, pts)
+    for k, (r, p) in enumerate(zip(runs, pts, strict=True)):
+        files[f"designs_{k}.csv"] = partial(_designs_csv, r, p)
+        files[f"generations_{k}.csv"] = partial(_generations_csv, r)
+
+
+def _summary_csv(runs: list[Run], pts, path: Path) -> None:
+    with open(path, "w", newline="") as fh:
         w = csv.writer(fh)
         w.writerow(["run", "mode", "continuity", "source", *[q for _, q, _ in TABLE7_COLUMNS],
                     *[f"{q}_class" for _, q, _ in TABLE7_COLUMNS], *[f"{q}_design" for _, q, _ in TABLE7_COLUMNS]])
@@ -249,24 +275,29 @@ def _tables(runs: list[Run], pts, out: Path) -> None:
             paper = paper_row(r)
             if paper:
                 w.writerow([r.name, r.mode, r.continuity, "Vessaz et al. 2013 Table 7", *paper, *[""] * 8])
-    for k, (r, p) in enumerate(zip(runs, pts, strict=True)):
-        values = {x.design.number: x for x in p}
-        names = sorted({n for d in r.designs for n in d.row.parameters})
-        with open(out / f"designs_{k}.csv", "w", newline="") as fh:
-            w = csv.writer(fh)
-            w.writerow(["design", "key", "generation", "status", "class", "feasible", "fy_span_N", "c_l", "c_max",
-                        "cp_min_abs", "fy_amplitude_N", "c_max_amplitude", "wall_seconds", "reason", *names])
-            for d in r.designs:
-                v = values.get(d.number)
-                nums = [v.fy, v.cl, v.cmax, v.cpmin, v.dfy, v.dcmax] if v else [""] * 6
-                w.writerow([d.number, d.key, d.row.generation, d.row.status, d.row.convergence or "",
-                            d.row.feasible, *nums, d.row.wall_seconds or "", d.row.reason,
-                            *[d.row.parameters.get(n, "") for n in names]])
-        h = health(r)
-        with open(out / f"generations_{k}.csv", "w", newline="") as fh:
-            w = csv.writer(fh)
-            w.writerow(["generation", "hypervolume", "feasible_share", "cache_hits", *h.by_status, *h.by_class])
-            for i, g in enumerate(h.generations):
-                w.writerow([g, h.hypervolume[i] if h.hypervolume[i] is not None else "",
-                            h.feasible_share[i] if h.feasible_share[i] is not None else "", h.cache_hits[i],
-                            *[v[i] for v in h.by_status.values()], *[v[i] for v in h.by_class.values()]])
+
+
+def _designs_csv(r: Run, p, path: Path) -> None:
+    values = {x.design.number: x for x in p}
+    names = sorted({n for d in r.designs for n in d.row.parameters})
+    with open(path, "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(["design", "key", "generation", "status", "class", "feasible", "fy_span_N", "c_l", "c_max",
+                    "cp_min_abs", "fy_amplitude_N", "c_max_amplitude", "wall_seconds", "reason", *names])
+        for d in r.designs:
+            v = values.get(d.number)
+            nums = [v.fy, v.cl, v.cmax, v.cpmin, v.dfy, v.dcmax] if v else [""] * 6
+            w.writerow([d.number, d.key, d.row.generation, d.row.status, d.row.convergence or "",
+                        d.row.feasible, *nums, d.row.wall_seconds or "", d.row.reason,
+                        *[d.row.parameters.get(n, "") for n in names]])
+
+
+def _generations_csv(r: Run, path: Path) -> None:
+    h = health(r)
+    with open(path, "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(["generation", "hypervolume", "feasible_share", "cache_hits", *h.by_status, *h.by_class])
+        for i, g in enumerate(h.generations):
+            w.writerow([g, h.hypervolume[i] if h.hypervolume[i] is not None else "",
+                        h.feasible_share[i] if h.feasible_share[i] is not None else "", h.cache_hits[i],
+                        *[v[i] for v in h.by_status.values()], *[v[i] for v in h.by_class.values()]])
