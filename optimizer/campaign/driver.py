@@ -217,6 +217,8 @@ def _run(config, problem, store, directory, runner, fn, progress, log) -> Outcom
         from optimizer.campaign.runner import make_runner
 
         runner = make_runner(config.execution)
+    if log is not None:
+        runner.log = log
     if fn is None:
         from optimizer.campaign.record import evaluate_payload
 

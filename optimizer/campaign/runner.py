@@ -80,6 +80,16 @@ PINNED_THREADS_ENV = {"OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_
 START_TOPIC = "millfoil-task-start"
 #: How long the result loop waits for a completion before checking timeouts and stuck workers, s.
 POLL_S = 0.2
+#: While no worker is connected, a line saying what the runner waits for every this many seconds.
+WAIT_REPORT_S = 30.0
+
+
+class ClusterRefused(RuntimeError):
+    """The batch scheduler refused a worker job (bad queue, account, resources): its own message."""
+
+
+class NoWorkers(RuntimeError):
+    """No worker connected within ``execution.cluster.wait``."""
 
 
 # --------------------------------------------------------------------------------------------------
@@ -151,6 +161,8 @@ class Runner(ABC):
 
     def __init__(self, config: ExecutionConfig, clock: Callable[[], float] = time.monotonic):
         self.config = config
+        #: Called with one line when the runner has something to say (waiting for workers); set by the driver.
+        self.log: Callable[[str], None] = lambda _line: None
         #: Seconds of a monotonic clock: what durations and timeouts are measured with (tests inject one).
         self.clock = clock
 
@@ -262,6 +274,8 @@ class DaskRunner(Runner):
         super().__init__(config, clock)
         self.cluster = None
         self.client = None
+        self._no_workers_since: float | None = None   # monotonic time the runner found no worker connected
+        self._reported_at = -math.inf
         self._started: dict[str, tuple[float, str]] = {}  # dask key -> (monotonic start, worker)
         self._stuck: dict[str, tuple[str, float]] = {}  # cancelled key -> (worker, when to check it)
         self._restarted: set[str] = set()  # workers this runner restarted (their losses are not retries)
@@ -315,6 +329,8 @@ class DaskRunner(Runner):
         pending: dict = {}  # future -> _Attempt
         try:
             while waiting or pending:
+                if not pending:
+                    self._check_workers()
                 self._submit_to_free_threads(fn_pickle, waiting, pending, ac)
                 self._wait_for_completion(ac)
                 for future, value in ac.next_batch(block=False):
@@ -328,6 +344,36 @@ class DaskRunner(Runner):
         finally:
             if pending:  # the consumer stopped early: do not leave the batch running
                 self.client.cancel(list(pending))
+
+    def _check_workers(self) -> None:
+        """With nothing running: while no worker is connected, say what the runner waits for (every
+        :data:`WAIT_REPORT_S`) and give up after ``execution.cluster.wait``; where the cluster's jobs were
+        refused by the scheduler, raise :class:`ClusterRefused` with its message at once."""
+        self._raise_refusal()
+        if self._threads() > 0:
+            self._no_workers_since = None
+            return
+        now = self.clock()
+        if self._no_workers_since is None:
+            self._no_workers_since, self._reported_at = now, now
+        waited = now - self._no_workers_since
+        limit = self._wait_limit()
+        if limit is not None and waited > limit:
+            raise NoWorkers(f"no worker connected within {_duration(limit)}: {self._waiting_for()}")
+        if now - self._reported_at >= WAIT_REPORT_S:
+            self._reported_at = now
+            self.log(f"waiting for workers ({_duration(waited)} so far"
+                     + (f", limit {_duration(limit)}" if limit is not None else "") + f"): {self._waiting_for()}")
+
+    def _raise_refusal(self) -> None:
+        """Raise :class:`ClusterRefused` if the scheduler refused a job (backends that submit jobs)."""
+
+    def _wait_limit(self) -> float | None:
+        """Seconds to wait for a first worker (None: no limit)."""
+        return None
+
+    def _waiting_for(self) -> str:
+        return f"the scheduler at {self.client.scheduler.address}" if self.client is not None else "the scheduler"
 
     def _submit_to_free_threads(self, fn_pickle: bytes, waiting: deque, pending: dict, ac) -> None:
         """Submit waiting tasks while worker threads are free.
@@ -542,13 +588,112 @@ class JobQueueRunner(DaskRunner):
             scheduler_options={"dashboard": False, "dashboard_address": ":0"},  # no dashboard, no fixed port
         )
         jobs = self.config.workers or 1
+        # the scheduler's refusal of a job (sbatch/qsub exiting non-zero) is raised inside dask-jobqueue's
+        # event loop, where it is only logged: collect it there, to stop the campaign with its message
+        self._refusals = _Refusals()
+        self._refusals.attach()
         # adapt, not scale: a job that ends (lifetime, wall time, scancel) is replaced by a new one
         cluster.adapt(minimum_jobs=jobs, maximum_jobs=jobs)
         return cluster
 
+    def close(self) -> None:
+        refusals, self._refusals = getattr(self, "_refusals", None), None
+        try:
+            super().close()
+        except AssertionError:
+            # dask's SpecCluster cannot close a job the scheduler refused (it never left "created"): there
+            # is nothing of it to stop, and the refusal is what the user must see
+            if not (refusals and refusals.messages):
+                raise
+            self.client = self.cluster = None
+        finally:
+            if refusals is not None:
+                refusals.detach()
+
+    def _raise_refusal(self) -> None:
+        refusals = getattr(self, "_refusals", None)
+        if refusals is not None and refusals.messages:
+            command = self.CLUSTER_CLASS.removesuffix("Cluster").lower()
+            raise ClusterRefused(f"the {command} scheduler refused the worker job: {refusals.messages[-1]}")
+
+    def _wait_limit(self) -> float | None:
+        wait = self.config.cluster.wait
+        return None if wait is None else _timedelta_seconds(wait)
+
+    def _waiting_for(self) -> str:
+        jobs = list(self.cluster.workers.values()) if self.cluster is not None else []
+        ids = [str(j.job_id) for j in jobs if getattr(j, "job_id", None)]
+        wanted = self.config.workers or 1
+        return (f"{wanted} worker job(s) named {self.config.cluster.job_name!r}; "
+                + (f"job IDs {', '.join(ids)} in the queue" if ids else "none submitted yet"))
+
+
+class _Refusals(logging.Handler):
+    """Collects the messages of failed job submissions (dask-jobqueue's ``Command exited with non-zero exit
+    code``) logged from the event loop, and keeps those log records off the terminal."""
+
+    LOGGERS = ("tornado.application", "distributed.deploy.adaptive", "distributed.deploy.spec")
+
+    def __init__(self):
+        super().__init__(logging.ERROR)
+        self.messages: list[str] = []
+        self._propagate: dict[str, bool] = {}
+
+    def emit(self, record: logging.LogRecord) -> None:
+        exc = record.exc_info[1] if record.exc_info else None
+        text = str(exc) if exc is not None else record.getMessage()
+        if "non-zero exit code" in text:
+            self.messages.append(_scheduler_message(text))
+
+    def attach(self) -> None:
+        for name in self.LOGGERS:
+            logger = logging.getLogger(name)
+            self._propagate[name] = logger.propagate
+            logger.addHandler(self)
+            logger.propagate = False
+
+    def detach(self) -> None:
+        for name, propagate in self._propagate.items():
+            logger = logging.getLogger(name)
+            logger.removeHandler(self)
+            logger.propagate = propagate
+
+
+def _scheduler_message(text: str) -> str:
+    """The scheduler's own words from dask-jobqueue's error (its ``stderr:`` lines), on one line."""
+    _, found, stderr = text.partition("stderr:")
+    lines = [line.strip() for line in (stderr if found else text).splitlines() if line.strip()]
+    return "; ".join(lines)[:500] or text.strip()[:500]
+
+
+def _duration(seconds: float) -> str:
+    """``95`` → ``1m35s``; ``7200`` → ``2h0m``."""
+    seconds = int(round(seconds))
+    if seconds < 60:
+        return f"{seconds}s"
+    if seconds < 3600:
+        return f"{seconds // 60}m{seconds % 60:02d}s"
+    return f"{seconds // 3600}h{seconds % 3600 // 60:02d}m"
+
 
 class SlurmRunner(JobQueueRunner):
     CLUSTER_CLASS = "SLURMCluster"
+
+    def _waiting_for(self) -> str:
+        """What the jobs wait for, as ``squeue`` says (``55 PENDING (Priority)``), after the job IDs."""
+        import subprocess
+
+        text = super()._waiting_for()
+        ids = [str(j.job_id) for j in self.cluster.workers.values() if getattr(j, "job_id", None)]
+        if not ids:
+            return text
+        try:
+            out = subprocess.run(["squeue", "-h", "-j", ",".join(ids), "-o", "%i %T (%r)"], capture_output=True,
+                                 text=True, timeout=10).stdout
+        except (OSError, subprocess.SubprocessError):
+            return text
+        states = "; ".join(line.strip() for line in out.splitlines() if line.strip())
+        return f"{text}: {states}" if states else text
 
 
 class PbsRunner(JobQueueRunner):
@@ -632,6 +777,9 @@ class ClusterOptions(Section):
     lifetime_stagger: str | None = Field(None, description="spread of the workers' retirements (a dask "
                                          "duration); null: min(5 min, walltime / 10)")
     job_name: str = Field("millfoil-worker", description="name of the jobs (as squeue shows it)")
+    wait: str | None = Field("24h", description="how long the campaign waits with no worker connected (jobs "
+                             "pending in the queue) before it stops, a dask duration (30m, 24h); null: no "
+                             "limit. A line says every 30 s what it waits for")
 
     @field_validator("walltime")
     @classmethod
@@ -639,7 +787,7 @@ class ClusterOptions(Section):
         walltime_seconds(value)
         return value
 
-    @field_validator("lifetime", "lifetime_stagger")
+    @field_validator("lifetime", "lifetime_stagger", "wait")
     @classmethod
     def _duration_format(cls, value: str | None) -> str | None:
         if value is not None:

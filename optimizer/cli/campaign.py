@@ -218,11 +218,12 @@ def _drive(start, quiet: bool, directory: Path) -> int:
     from optimizer.campaign.lock import DirectoryInUse
     from optimizer.campaign.problem import EmptySpaceError
     from optimizer.campaign.progress import ProgressDisplay, front_table, write_front_csv
+    from optimizer.campaign.runner import ClusterRefused
 
     display = ProgressDisplay()
     try:
         outcome = start(_Quiet(display) if quiet else display)
-    except (CampaignError, DirectoryInUse, EmptySpaceError) as exc:
+    except (CampaignError, ClusterRefused, DirectoryInUse, EmptySpaceError) as exc:
         print(f"millfoil: error: {exc}", file=sys.stderr)
         return EXIT_INPUT
     except KeyboardInterrupt:
