@@ -42,7 +42,7 @@ from optimizer.campaign.offspring import make_offspring
 from optimizer.campaign.problem import Assessment, CampaignProblem, Feasibility, initial_population, make_problem
 from optimizer.campaign.record import EvaluationRecord
 from optimizer.campaign.status import EvaluationStatus
-from optimizer.campaign.store import STORE_NAME, EvaluationRow, GenerationRow, Store, now
+from optimizer.campaign.store import STORE_NAME, EvaluationRow, GenerationRow, Store, check_values, now
 
 #: pymoo never stops the loop itself: the driver counts generations.
 _NO_TERMINATION = ("n_gen", 10**9)
@@ -175,19 +175,49 @@ def resume_campaign(directory: str | Path, *, runner=None, fn: Callable[[dict], 
     path = directory / STORE_NAME
     if not path.exists():
         raise CampaignError(f"no campaign store in {directory} (expected {path})")
-    with DriverLock(directory, "resume", log), Store(path) as store:
-        row = store.campaign()
-        if row is None:
-            raise CampaignError(f"{path} holds no campaign (it never started)")
-        config = saved_config(row.config, execution, overrides)
-        store.set_sync(config.output.sync)
-        problem = make_problem(config)
-        if problem.version != row.version and log:
-            log(f"the campaign started with millfoil {row.version}, this is {problem.version}: its stored "
-                "evaluations are kept and the rest run with this version")
-        problem.version = row.version       # the keys of the stored evaluations stay valid
-        store.start_campaign(row.config, row.seed, row.version)
-        return _run(config, problem, store, directory, runner, fn, progress, log)
+    with DriverLock(directory, "resume", log):
+        with Store(path, readonly=True) as store:      # refused without writing a byte
+            row = store.campaign()
+            if row is None:
+                raise CampaignError(f"{path} holds no campaign (it never started)")
+            config = saved_config(row.config, execution, overrides)
+            _check_readable(store, path, config)
+        with Store(path) as store:
+            return _resume(config, row, store, directory, runner, fn, progress, log)
+
+
+def _check_readable(store: Store, path: Path, config: CampaignConfig) -> None:
+    """SQLite's integrity check passes and every stored row parses (damage raises
+    :class:`~optimizer.campaign.store.StoreDamaged`), and the last
+    stored population's designs are all in the evaluations table (the resumed algorithm starts from them;
+    a store that lost some is damaged): both before the store is opened for writing, so that a damaged
+    store is refused (exit status 2) exactly as it was."""
+    from optimizer.config import ConfigError
+
+    store.verify()
+    rows = list(store.evaluations())
+    check_values(path, rows, [o.label for o in config.objectives])
+    keys = {r.key for r in rows}
+    generations = store.generations()
+    if not generations:
+        return
+    last = generations[-1]
+    missing = set(last.members) - keys
+    if missing:
+        raise ConfigError(f"{path} is damaged: generation {last.generation + 1} lists {len(missing)} of its "
+                          f"{len(set(last.members))} designs that the evaluations table does not hold; the "
+                          "campaign cannot continue from it (`millfoil status` shows what can be read)")
+
+
+def _resume(config, row, store, directory, runner, fn, progress, log) -> Outcome:
+    store.set_sync(config.output.sync)
+    problem = make_problem(config)
+    if problem.version != row.version and log:
+        log(f"the campaign started with millfoil {row.version}, this is {problem.version}: its stored "
+            "evaluations are kept and the rest run with this version")
+    problem.version = row.version       # the keys of the stored evaluations stay valid
+    store.start_campaign(row.config, row.seed, row.version)
+    return _run(config, problem, store, directory, runner, fn, progress, log)
 
 
 def saved_config(text: str, execution: dict | None = None, overrides: Sequence[str] = ()) -> CampaignConfig:
@@ -196,13 +226,23 @@ def saved_config(text: str, execution: dict | None = None, overrides: Sequence[s
     them) — are validated as ``millfoil run`` validates a campaign (:meth:`CampaignConfig.from_mapping`):
     a bad one is a :class:`~optimizer.config.ConfigError` naming its ``--set`` (exit status 2)."""
     import yaml
+    from pydantic import ValidationError
 
     from optimizer.config import ConfigError, shorten
     from optimizer.yamlsource import Source
 
     data = yaml.safe_load(text)
+    if not isinstance(data, dict):
+        raise ConfigError(f"the stored campaign configuration is a YAML {type(data).__name__}, not a mapping of "
+                          "sections: the store is damaged")
     if not execution and not overrides:
-        return CampaignConfig.model_validate(data)
+        try:
+            return CampaignConfig.model_validate(data)
+        except ValidationError as exc:
+            first = exc.errors()[0]
+            where = ".".join(str(part) for part in first["loc"]) or "the campaign"
+            raise ConfigError(f"the stored campaign configuration is not valid for this millfoil: {where}: "
+                              f"{shorten(first['msg'])}") from None
     for item in overrides:
         if not item.partition("=")[0].strip().startswith("execution."):
             raise ConfigError(f"--set {shorten(item)}: resume changes only execution.KEY=VALUE (the rest of the "

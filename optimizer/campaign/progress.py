@@ -20,7 +20,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import TextIO
 
-from optimizer.campaign.store import STORE_NAME, EvaluationRow, Store, StoreInspection
+from optimizer.campaign.store import STORE_NAME, EvaluationRow, Store, StoreInspection, check_values
 
 
 def duration(seconds: float | None) -> str:
@@ -121,6 +121,7 @@ def status_of(directory: str | Path) -> dict:
         config = saved_config(row.config)
         generations = store.generations()
         rows = list(store.evaluations())
+    check_values(Path(directory) / STORE_NAME, rows, [o.label for o in config.objectives])
     by_status = dict(Counter(str(r.status) for r in rows))
     by_class = dict(Counter(str(r.convergence) for r in rows if r.convergence))
     labels = [o.label for o in config.objectives]
@@ -211,7 +212,8 @@ def format_damaged(directory: str | Path, inspection: StoreInspection) -> str:
             if not t.complete:
                 text += f"; unreadable after row {t.rows} ({t.error})"
         if t.name == "evaluations" and inspection.by_status:
-            text += "; by status: " + ", ".join(f"{k} {v}" for k, v in sorted(inspection.by_status.items()))
+            counts = sorted(inspection.by_status.items(), key=lambda kv: str(kv[0]))    # a damaged status: NULL
+            text += "; by status: " + ", ".join(f"{k} {v}" for k, v in counts)
         lines.append(f"  {t.name} table: {text}")
     return "\n".join(lines)
 

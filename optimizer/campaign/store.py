@@ -39,7 +39,7 @@ import datetime as _dt
 import json
 import math
 import sqlite3
-from collections.abc import Iterable, Iterator, Mapping
+from collections.abc import Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -380,7 +380,7 @@ def inspect_store(path: str | Path, cause: str | None = None) -> StoreInspection
     try:
         try:
             names = {r[0] for r in db.execute("SELECT name FROM sqlite_master WHERE type='table'")}
-        except sqlite3.DatabaseError as exc:
+        except (sqlite3.DatabaseError, UnicodeDecodeError) as exc:
             return StoreInspection(path, size, _unreadable(exc))
         tables = tuple(_inspect_table(db, name) if name in names else TableState(name, False) for name in TABLES)
         campaign = by_status = None
@@ -389,12 +389,12 @@ def inspect_store(path: str | Path, cause: str | None = None) -> StoreInspection
                 row = db.execute("SELECT state, seed, version, started, ended, message FROM campaign WHERE id=1"
                                  ).fetchone()
                 campaign = None if row is None else dict(row)
-            except sqlite3.DatabaseError:
+            except (sqlite3.DatabaseError, UnicodeDecodeError):
                 pass
         if "evaluations" in names:
             try:
                 by_status = {s: n for s, n in db.execute("SELECT status, COUNT(*) FROM evaluations GROUP BY status")}
-            except sqlite3.DatabaseError:
+            except (sqlite3.DatabaseError, UnicodeDecodeError):
                 pass
     finally:
         db.close()
@@ -429,8 +429,8 @@ def _inspect_table(db: sqlite3.Connection, name: str) -> TableState:
                 why = _yaml_problem(row["config"])
                 if why is not None:
                     invalid.append((label, "config", why))
-    except sqlite3.DatabaseError as exc:
-        return TableState(name, True, rows, False, str(exc), tuple(invalid))
+    except (sqlite3.DatabaseError, UnicodeDecodeError) as exc:      # text that is not UTF-8: overwritten bytes
+        return TableState(name, True, rows, False, _short(exc), tuple(invalid))
     return TableState(name, True, rows, True, None, tuple(invalid))
 
 
@@ -461,13 +461,14 @@ def _yaml_problem(text: Any) -> str | None:
     import yaml
 
     try:
-        yaml.safe_load(text)
+        data = yaml.safe_load(text)
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         problem = getattr(exc, "problem", None) or type(exc).__name__
         return f"line {mark.line + 1}: {problem}" if mark is not None else _short(problem)
     except (TypeError, ValueError) as exc:
         return _short(exc)
+    del data
     return None
 
 
@@ -514,6 +515,8 @@ def _check(db: sqlite3.Connection, path: Path) -> None:
         if _transient(exc):
             raise
         damaged, cause = True, str(exc)
+    except UnicodeDecodeError as exc:          # a text value that is not UTF-8: overwritten bytes
+        damaged, cause = True, f"a text value is not UTF-8 ({_short(exc)})"
     if damaged:
         inspection = inspect_store(path, cause)
         if inspection.damaged:
@@ -700,6 +703,19 @@ class Store:
                  row.feasible_offspring, row.feasible_share, row.cache_hits, row.hypervolume,
                  json.dumps(row.rng_state), row.finished, None if row.search is None else dumps(row.search)))
 
+    def verify(self) -> None:
+        """SQLite's full integrity check (every page, every index against its table), which the check at
+        opening leaves out: raises :class:`StoreDamaged` with its first findings. Reads the whole file
+        (well under a second for thousands of designs)."""
+        try:
+            found = [r[0] for r in self._db.execute("PRAGMA integrity_check(3)")]
+        except sqlite3.DatabaseError as exc:
+            if _transient(exc):
+                raise
+            found = [str(exc)]
+        if found != ["ok"]:
+            raise StoreDamaged(inspect_store(self.path, f"SQLite's integrity check: {_short('; '.join(found), 200)}"))
+
     def generations(self) -> list[GenerationRow]:
         with self._reading():
             return [_generation(r) for r in self._db.execute("SELECT * FROM generations ORDER BY generation")]
@@ -723,18 +739,78 @@ def non_dominated(F: np.ndarray, chunk: int = 256) -> np.ndarray:
 
 
 def _evaluation(r: sqlite3.Row) -> EvaluationRow:
-    return EvaluationRow(
+    row = EvaluationRow(
         key=r["key"], generation=r["generation"], x=loads(r["x"]), parameters=loads(r["parameters"]),
         status=r["status"], reason=r["reason"], convergence=r["class"], objectives=loads(r["objectives"]),
         minimised=loads(r["minimised"]), constraints=loads(r["constraints"]), figures=loads(r["figures"]),
         monitors=loads(r["monitors"]), cells=r["cells"], iterations=r["iterations"], seconds=loads(r["seconds"]),
         wall_seconds=r["wall_seconds"], worker=r["worker"], submitted=r["submitted"], finished=r["finished"])
+    where = f"the evaluation {str(r['key'])[:10]}"
+    _shape(where, "key", row.key, str)
+    _shape(where, "generation", row.generation, int)
+    _shape(where, "x", row.x, list, item=_NUMBER)
+    _shape(where, "minimised", row.minimised, list, item=_NUMBER)
+    _shape(where, "parameters", row.parameters, dict, item=_NUMBER)
+    _shape(where, "constraints", row.constraints, dict, item=_NUMBER)
+    for column in ("objectives", "figures", "monitors", "seconds"):
+        _shape(where, column, getattr(row, column), dict, nullable=True)
+    return row
 
 
 def _generation(r: sqlite3.Row) -> GenerationRow:
-    return GenerationRow(
+    row = GenerationRow(
         generation=r["generation"], members=loads(r["members"]), rank=loads(r["rank"]),
         crowding=loads(r["crowding"]), offspring=loads(r["offspring"]), feasible_offspring=r["feasible_offspring"],
         feasible_share=r["feasible_share"], cache_hits=r["cache_hits"], hypervolume=r["hypervolume"],
         rng_state=json.loads(r["rng_state"]), finished=r["finished"],
         search=loads(r["search"]) if "search" in r.keys() else None)
+    where = f"generation {r['generation']}"
+    _shape(where, "generation", row.generation, int)
+    _shape(where, "members", row.members, list, item=str)
+    _shape(where, "offspring", row.offspring, list, item=str)
+    _shape(where, "rank", row.rank, list)
+    _shape(where, "crowding", row.crowding, list)
+    _shape(where, "rng_state", row.rng_state, dict)
+    _shape(where, "search", row.search, dict, nullable=True)
+    if not len(row.members) == len(row.rank) == len(row.crowding):
+        raise ValueError(f"{where}: {len(row.members)} members but {len(row.rank)} ranks and {len(row.crowding)} "
+                         "crowding distances")
+    return row
+
+
+def check_values(path: str | Path, rows: Iterable[EvaluationRow], labels: Sequence[str]) -> None:
+    """StoreDamaged unless every evaluation with values (status ``ok``) has a number for each objective
+    ``labels`` (the stored campaign's) and one minimised value per objective: what the driver, ``status``
+    and ``report`` read from every such row."""
+    for row in rows:
+        if not row.ok:
+            continue
+        objectives = row.objectives or {}
+        missing = [label for label in labels if not isinstance(objectives.get(label), _NUMBER)]
+        if missing or len(row.minimised) != len(labels):
+            what = (f"no value of {', '.join(map(repr, missing))}" if missing
+                    else f"{len(row.minimised)} minimised values for {len(labels)} objectives")
+            raise StoreDamaged(inspect_store(path, f"the evaluation {row.key[:10]} (ok) has {what}"))
+
+
+#: A stored number: JSON's int or float (infinities are stored as strings and read back as floats).
+_NUMBER = (int, float)
+
+
+def _shape(where: str, column: str, value: Any, kind: type, *, item: Any = None, nullable: bool = False) -> None:
+    """ValueError naming the row and column unless ``value`` is a ``kind`` (a list or dict of ``item``
+    values where given; None where ``nullable``): valid JSON of the wrong shape is damage too."""
+    if value is None and nullable:
+        return
+    good = isinstance(value, kind) and not isinstance(value, bool)
+    if good and item is not None:
+        values = value.values() if isinstance(value, dict) else value
+        good = all(isinstance(v, item) and not isinstance(v, bool) for v in values)
+        good = good and (not isinstance(value, dict) or all(isinstance(k, str) for k in value))
+    if not good:
+        raise ValueError(f"{where} has a {type(value).__name__} in its {column!r} column, where a "
+                         f"{kind.__name__}{' of ' + _name(item) if item is not None else ''} belongs")
+
+
+def _name(item: Any) -> str:
+    return "numbers" if item is _NUMBER else f"{item.__name__}s"

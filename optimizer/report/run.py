@@ -132,6 +132,9 @@ def load_run(directory: str | Path) -> Run:
     if campaign is None:
         raise RunError(f"{path}: the store holds no campaign yet")
     config = yaml.safe_load(campaign.config) or {}
+    if not isinstance(config, dict):
+        raise RunError(f"{path} is damaged: the stored campaign configuration is a YAML "
+                       f"{type(config).__name__}, not a mapping of sections")
     designs = tuple(sorted((Design(numbers.get(r.key, 0), r) for r in rows), key=lambda d: d.number))
     return Run(directory, campaign, config, designs, generations)
 

@@ -10,7 +10,11 @@ The heaviest hostile inputs are also run in a fresh child process whose own peak
 the test process itself, a lifetime peak that an earlier test raised would hide any growth.
 
 Cases: a corpus of every class of hostile input (files x commands, output locations, options), hypothesis over
-``--set`` keys and values and over whole YAML documents, and a few real subprocesses. Commands are run
+``--set`` keys and values and over whole YAML documents, damaged campaign stores (a real store's bytes
+truncated, overwritten or zeroed; its values and tables changed by SQL) against every command that reads a
+run directory, and a few real subprocesses. Run-directory locks, signals, scheduler refusals and full disks
+need real processes, a scheduler or a file system: ``tests/optimizer/campaign/test_concurrency.py``,
+``test_signals.py``, ``test_cluster_refusal.py`` and ``tests/optimizer/test_half_written_outputs.py``. Commands are run
 in-process through ``optimizer.cli.main``; ``mesh`` and ``evaluate`` only with inputs refused before any
 stage (the fuzzer never meshes or solves). The fast tier runs about 260 cases in about 12 s; ``slow``
 multiplies the hypothesis examples and adds the subprocesses.
@@ -361,6 +365,114 @@ def test_overrides_long(key, value, command):
 def test_files_long(doc, how, at, command):
     text = _mutate(yaml.safe_dump(doc, allow_unicode=True), how, at)
     case([command, "c.yaml"], {"c.yaml": text}, named=("c.yaml", "--set"))
+
+
+# ------------------------------------------------------------------------------------ campaign commands
+#: A small finished campaign whose store the campaign cases damage (ZDT1, inline: no CFD, well under a second).
+ZDT1 = ("analytic: {problem: zdt1, variables: 4}\nalgorithm: {population: 6, generations: 2, seed: 3}\n"
+        "execution: {backend: inline}\noutput: {sync: normal}\n")
+#: Commands that read a run directory, and the exit statuses each may end with on a damaged store: 0 where the
+#: damage missed everything they read, 2 otherwise (``resume``: also 0 after continuing the campaign).
+CAMPAIGN_COMMANDS = {"status": ["status", "run"], "status --json": ["status", "run", "--json"],
+                     "report": ["report", "run", "--out", "report"],
+                     "export": ["export", "run", "--id", "1", "--format", "linuxcnc", "--out", "p.nc"],
+                     "resume": ["resume", "run", "--quiet"], "run": ["run", "c.yaml", "--out", "run", "--quiet"]}
+#: SQL that damages one value or a table of a store.
+SQL_DAMAGES = ["UPDATE evaluations SET {column} = {value} WHERE rowid = (SELECT min(rowid) FROM evaluations)",
+               "UPDATE generations SET {column} = {value}", "UPDATE campaign SET config = {value}",
+               "DROP TABLE {table}", "DELETE FROM {table}"]
+
+
+@pytest.fixture(scope="module")
+def finished_run(tmp_path_factory) -> Path:
+    from optimizer.campaign.config import load_campaign
+    from optimizer.campaign.driver import run_campaign
+
+    base = tmp_path_factory.mktemp("campaign")
+    (base / "c.yaml").write_text(ZDT1)
+    run_campaign(load_campaign(base / "c.yaml", []), base / "run")
+    return base / "run"
+
+
+def _damage_bytes(path: Path, how: str, at: float, data: bytes) -> None:
+    """Damage the file's bytes: truncate at a share of its length, overwrite from there, or zero a page."""
+    size = path.stat().st_size
+    offset = int(at * size)
+    with open(path, "r+b") as fh:
+        if how == "truncate":
+            fh.truncate(offset)
+        elif how == "overwrite":
+            fh.seek(offset)
+            fh.write(data)
+        else:                                       # a zeroed 4 KiB page, SQLite's page size
+            fh.seek(offset // 4096 * 4096)
+            fh.write(bytes(4096))
+
+
+def _damage_sql(path: Path, statement: str) -> None:
+    import sqlite3
+
+    db = sqlite3.connect(path)
+    try:
+        with db:
+            db.execute(statement)
+    except sqlite3.Error:                           # a column this table does not have: no damage done
+        pass
+    finally:
+        db.close()
+
+
+def campaign_case(finished_run: Path, command: str, damage) -> Outcome:
+    """``millfoil COMMAND`` on a copy of the finished run damaged by ``damage(store)``, checked: a documented
+    exit status, no traceback, one error line; the reading commands leave the store byte for byte as it was
+    and write nothing when they fail."""
+    import shutil
+
+    with tempfile.TemporaryDirectory() as tmp:
+        cwd = Path(tmp)
+        shutil.copytree(finished_run, cwd / "run", ignore=shutil.ignore_patterns("driver.lock", "*-wal", "*-shm"))
+        (cwd / "c.yaml").write_text(ZDT1)
+        store = cwd / "run" / "campaign.sqlite"
+        damage(store)
+        before = store.read_bytes()
+        outcome = run_cli(CAMPAIGN_COMMANDS[command], cwd)
+        context = f"{command}: exit {outcome.code}\nstderr: {outcome.err[-2000:]}"
+        assert outcome.code in {0, 2}, context
+        assert "Traceback" not in outcome.err + outcome.out, context
+        if outcome.code == 2:
+            errors = [line for line in outcome.err.splitlines() if line.startswith("millfoil: error:")]
+            assert len(errors) == 1 and len(errors[0]) < 1500, context
+            assert not (cwd / "report").exists() and not (cwd / "p.nc").exists(), context
+        if command.startswith(("status", "report", "export")) or outcome.code == 2:
+            assert store.read_bytes() == before, context
+        return outcome
+
+
+@FAST
+@given(command=st.sampled_from(list(CAMPAIGN_COMMANDS)), how=st.sampled_from(["truncate", "overwrite", "zero"]),
+       at=st.floats(min_value=0.0, max_value=0.999), data=st.binary(min_size=1, max_size=64))
+def test_damaged_store_bytes(finished_run, command, how, at, data):
+    campaign_case(finished_run, command, lambda store: _damage_bytes(store, how, at, data))
+
+
+@FAST
+@given(command=st.sampled_from(list(CAMPAIGN_COMMANDS)), statement=st.sampled_from(SQL_DAMAGES),
+       table=st.sampled_from(["campaign", "evaluations", "generations"]),
+       column=st.sampled_from(["x", "parameters", "objectives", "constraints", "figures", "monitors", "members",
+                               "rank", "rng_state", "search", "status", "generation", "key", "reference"]),
+       value=st.sampled_from(["'{'", "'[1,'", "'null'", "NULL", "'x'", "-1", "1e999", "X'00ff'", "'\u0000'",
+                              "'!!python/object:os.system x'", "'a: [b'", "'{}'", "'[]'", "''"]))
+def test_damaged_store_values(finished_run, command, statement, table, column, value):
+    campaign_case(finished_run, command,
+                  lambda store: _damage_sql(store, statement.format(table=table, column=column, value=value)))
+
+
+@pytest.mark.slow
+@settings(SLOW, max_examples=150)
+@given(command=st.sampled_from(list(CAMPAIGN_COMMANDS)), how=st.sampled_from(["truncate", "overwrite", "zero"]),
+       at=st.floats(min_value=0.0, max_value=0.999), data=st.binary(min_size=1, max_size=4096))
+def test_damaged_store_bytes_long(finished_run, command, how, at, data):
+    campaign_case(finished_run, command, lambda store: _damage_bytes(store, how, at, data))
 
 
 # ------------------------------------------------------------------------------------------ subprocess
