@@ -227,14 +227,16 @@ def _drive(start, quiet: bool, directory: Path) -> int:
         print(f"millfoil: error: {exc}", file=sys.stderr)
         return EXIT_INPUT
     except KeyboardInterrupt:
-        print(f"\nmillfoil: interrupted; what finished is stored. Continue with: millfoil resume {directory}",
-              file=sys.stderr)
+        left = (f"what finished is stored. Continue with: millfoil resume {directory}" if _stored(directory)
+                else "nothing had been evaluated and nothing is left")
+        print(f"\nmillfoil: interrupted; {left}", file=sys.stderr)
         return EXIT_INTERRUPTED
     except ConfigError:
         raise
     except Exception as exc:
-        print(f"millfoil: error: the campaign failed: {type(exc).__name__}: {exc}; what finished is stored in "
-              f"{directory}", file=sys.stderr)
+        left = (f"what finished is stored in {directory}" if _stored(directory)
+                else "nothing had been evaluated and nothing is left")
+        print(f"millfoil: error: the campaign failed: {type(exc).__name__}: {exc}; {left}", file=sys.stderr)
         return EXIT_FAILED
     try:
         csv_path = write_front_csv(outcome.front, outcome.labels, Path(outcome.directory) / "front.csv")
@@ -248,6 +250,13 @@ def _drive(start, quiet: bool, directory: Path) -> int:
     print(f"non-dominated designs ({len(outcome.front)}):")
     print(front_table(outcome.front, outcome.labels))
     return EXIT_OK
+
+
+def _stored(directory: Path) -> bool:
+    """Whether the run directory still holds a store (a run stopped before its first evaluation removes it)."""
+    from optimizer.campaign.store import STORE_NAME
+
+    return (Path(directory) / STORE_NAME).exists()
 
 
 class _Quiet:
