@@ -20,13 +20,11 @@ import signal
 import sys
 from collections.abc import Sequence
 
+from optimizer.cli.exits import EXIT_FAILED, EXIT_INFEASIBLE, EXIT_INPUT, EXIT_INTERRUPTED, EXIT_OK
+
 __all__ = ["COMMAND_MODULES", "build_parser", "commands", "EXIT_FAILED", "EXIT_INFEASIBLE", "EXIT_INPUT",
            "EXIT_INTERRUPTED", "EXIT_OK", "main"]
 
-#: Exit statuses: success, bad input (configuration, override, file), infeasible blade, a stage failed.
-EXIT_OK, EXIT_INPUT, EXIT_INFEASIBLE, EXIT_FAILED = 0, 2, 3, 4
-#: Exit status of an interrupted command (128 + SIGINT, as a shell reports Ctrl-C; SIGTERM too).
-EXIT_INTERRUPTED = 130
 #: Command modules under :mod:`optimizer.cli`, in the order of ``millfoil --help``.
 COMMAND_MODULES = ("blade", "mesh", "evaluate", "validate", "campaign", "report", "export")
 

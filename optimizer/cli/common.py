@@ -9,7 +9,7 @@ import textwrap
 from pathlib import Path
 
 from meshing import LEVELS
-from optimizer.cli import EXIT_FAILED, EXIT_INFEASIBLE, EXIT_INPUT, EXIT_INTERRUPTED, EXIT_OK  # noqa: F401
+from optimizer.cli.exits import EXIT_FAILED, EXIT_INFEASIBLE, EXIT_INPUT, EXIT_INTERRUPTED, EXIT_OK  # noqa: F401
 from optimizer.config import Config, load_config
 
 #: Mesh resolution levels a command accepts on ``--level``: :data:`meshing.LEVELS`.
