@@ -38,6 +38,7 @@ import contextlib
 import datetime as _dt
 import json
 import math
+import os
 import sqlite3
 from collections.abc import Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -523,6 +524,23 @@ def _check(db: sqlite3.Connection, path: Path) -> None:
             raise StoreDamaged(inspection)
 
 
+def _create(path: Path) -> None:
+    """A new, empty store at ``path``: its tables are created in a temporary file of the same directory,
+    which is then renamed onto ``path``, so that a reader (``millfoil status`` the moment a run starts)
+    never finds a store file without its tables."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    partial = path.with_name(f".{path.name}.partial")
+    partial.unlink(missing_ok=True)
+    db = sqlite3.connect(partial)
+    try:
+        with db:
+            db.executescript(_SCHEMA)
+            db.execute(f"PRAGMA user_version={SCHEMA_VERSION}")
+    finally:
+        db.close()
+    os.replace(partial, path)
+
+
 class Store:
     """The SQLite store of one run (see the module docstring).
 
@@ -551,7 +569,8 @@ class Store:
             if self.path.exists():
                 with contextlib.closing(sqlite3.connect(_readonly_uri(self.path), uri=True, timeout=30.0)) as db:
                     _check(db, self.path)
-            self.path.parent.mkdir(parents=True, exist_ok=True)
+            else:
+                _create(self.path)
             self._db = sqlite3.connect(self.path, timeout=30.0)
             self._db.execute("PRAGMA journal_mode=WAL")
             # FULL: a finished evaluation survives a power cut of the driver's machine too, for one fsync

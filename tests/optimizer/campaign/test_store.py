@@ -6,11 +6,12 @@ import math
 import sqlite3
 import subprocess
 import sys
+from pathlib import Path
 
 import pytest
 
 from optimizer.campaign.status import EvaluationStatus
-from optimizer.campaign.store import EvaluationRow, GenerationRow, Store
+from optimizer.campaign.store import STORE_NAME, EvaluationRow, GenerationRow, Store
 
 
 def row(key: str, generation: int = 0, status: str = "ok", **changes) -> EvaluationRow:
@@ -110,3 +111,24 @@ def test_queries_by_generation_and_status(tmp_path):
         assert store.count_by_status(0) == {"ok": 1, "mesh_failed": 1}
         assert [r.key for r in store.evaluations(1)] == ["c"]
         assert set(store.get_many(["a", "c", "zz"])) == {"a", "c"}
+
+
+def test_a_new_store_appears_with_its_tables(tmp_path, monkeypatch):
+    """The tables are made in a temporary file renamed onto the store's name: a reader the moment a run starts
+    finds either no store or an empty one with every table, never a store without its tables."""
+    import optimizer.campaign.store as store_module
+
+    seen = []
+    real_replace = store_module.os.replace
+
+    def replace(src, dst):
+        seen.append(Path(dst).exists())          # the store's name is free until the rename
+        with sqlite3.connect(src) as db:
+            seen.append({r[0] for r in db.execute("SELECT name FROM sqlite_master WHERE type='table'")})
+        real_replace(src, dst)
+
+    monkeypatch.setattr(store_module.os, "replace", replace)
+    with Store(tmp_path / STORE_NAME) as s:
+        assert s.campaign() is None
+    assert seen == [False, {"campaign", "evaluations", "generations"}]
+    assert sorted(p.name for p in tmp_path.iterdir() if "partial" in p.name) == []
