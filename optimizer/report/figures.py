@@ -80,9 +80,6 @@ def pareto_figure(runs: list[tuple[Run, list[Point]]], x: str, y: str, path: Pat
 def gallery_figure(run: Run, chosen: list[Point], path: Path) -> Path:
     """Blades of ``chosen`` rebuilt from their parameters: outline and camber line; for tool-path runs also
     the tool path, the cutter at the start of the cut and the machined blade (filled)."""
-    from geometry import BladeSpec, build_profile
-    from geometry.profile import GeometryError
-
     n = max(len(chosen), 1)
     cols = min(n, 3)
     rows = -(-n // cols)
@@ -90,37 +87,51 @@ def gallery_figure(run: Run, chosen: list[Point], path: Path) -> Path:
     for ax in axes.flat:
         ax.set_axis_off()
     for ax, p in zip(axes.flat, chosen, strict=False):
-        row = p.design.row
-        ax.set_title(f"#{p.design.number}: |F_Y| {p.fy:.1f} N, C_max {p.cmax:.2f} m/s", fontsize=8)
-        try:
-            profile = build_profile(BladeSpec.from_values(run.mode, run.continuity, row.parameters))
-        except (ValueError, GeometryError) as exc:
-            ax.text(0.5, 0.5, f"cannot rebuild: {exc}"[:80], ha="center", va="center", fontsize=7, wrap=True)
-            continue
-        mm = profile.points * 1e3
-        ax.fill(mm[:, 0], mm[:, 1], color="0.85", zorder=1)
-        ax.plot(*np.vstack([mm, mm[:1]]).T, "k-", lw=0.9, zorder=3)
-        camber = profile.curves.camber.points(np.linspace(0, 1, 60)) * 1e3
-        ax.plot(camber[:, 0], camber[:, 1], "--", color="C0", lw=0.8, zorder=2)
-        if profile.tool_path is not None:
-            tp = np.vstack([profile.tool_path, profile.tool_path[:1]]) * 1e3
-            ax.plot(tp[:, 0], tp[:, 1], "-", color="C3", lw=0.8, zorder=2)
-            r = profile.spec["R"] * 1e3
-            for at in (profile.curves.suction.start, profile.curves.suction.end):
-                ax.add_patch(plt.Circle(tuple(at * 1e3), r, fill=False, color="C3", lw=0.6, ls=":"))
-        ax.set_aspect("equal")
-        ax.set_axis_on()
-        ax.tick_params(labelsize=6)
-    handles = [plt.Line2D([], [], color="k", lw=0.9, label="blade" if run.mode == "design" else "machined blade"),
-               plt.Line2D([], [], color="C0", ls="--", lw=0.8, label="camber line")]
-    if run.mode == "toolpath":
-        handles += [plt.Line2D([], [], color="C3", lw=0.8, label="tool path (cutter centre)"),
-                    plt.Line2D([], [], color="C3", ls=":", lw=0.6, label="cutter")]
+        blade_panel(ax, run, p, f"#{p.design.number}: |F_Y| {p.fy:.1f} N, C_max {p.cmax:.2f} m/s")
+    handles = blade_legend(run.mode)
     fig.legend(handles=handles, loc="lower center", ncol=len(handles), fontsize=7, frameon=False)
     fig.tight_layout(rect=(0, 0.06, 1, 1))
     fig.savefig(path)
     plt.close(fig)
     return path
+
+
+def blade_panel(ax, run: Run, p: Point, title: str) -> None:
+    """Draw design ``p`` of ``run`` rebuilt from its parameters on ``ax`` (mm): outline (filled) and camber
+    line; for tool-path runs also the tool path and the cutter at both ends of the suction side."""
+    from geometry import BladeSpec, build_profile
+    from geometry.profile import GeometryError
+
+    ax.set_title(title, fontsize=8)
+    try:
+        profile = build_profile(BladeSpec.from_values(run.mode, run.continuity, p.design.row.parameters))
+    except (ValueError, GeometryError) as exc:
+        ax.text(0.5, 0.5, f"cannot rebuild: {exc}"[:80], ha="center", va="center", fontsize=7, wrap=True)
+        return
+    mm = profile.points * 1e3
+    ax.fill(mm[:, 0], mm[:, 1], color="0.85", zorder=1)
+    ax.plot(*np.vstack([mm, mm[:1]]).T, "k-", lw=0.9, zorder=3)
+    camber = profile.curves.camber.points(np.linspace(0, 1, 60)) * 1e3
+    ax.plot(camber[:, 0], camber[:, 1], "--", color="C0", lw=0.8, zorder=2)
+    if profile.tool_path is not None:
+        tp = np.vstack([profile.tool_path, profile.tool_path[:1]]) * 1e3
+        ax.plot(tp[:, 0], tp[:, 1], "-", color="C3", lw=0.8, zorder=2)
+        r = profile.spec["R"] * 1e3
+        for at in (profile.curves.suction.start, profile.curves.suction.end):
+            ax.add_patch(plt.Circle(tuple(at * 1e3), r, fill=False, color="C3", lw=0.6, ls=":"))
+    ax.set_aspect("equal")
+    ax.set_axis_on()
+    ax.tick_params(labelsize=6)
+
+
+def blade_legend(mode: str) -> list:
+    """Legend handles of :func:`blade_panel` for a run of ``mode``."""
+    handles = [plt.Line2D([], [], color="k", lw=0.9, label="blade" if mode == "design" else "machined blade"),
+               plt.Line2D([], [], color="C0", ls="--", lw=0.8, label="camber line")]
+    if mode == "toolpath":
+        handles += [plt.Line2D([], [], color="C3", lw=0.8, label="tool path (cutter centre)"),
+                    plt.Line2D([], [], color="C3", ls=":", lw=0.6, label="cutter")]
+    return handles
 
 
 def health_figure(h: Health, path: Path) -> Path:
@@ -234,3 +245,97 @@ def convergence_figure(curves: list[Convergence], path: Path) -> Path:
     fig.savefig(path)
     plt.close(fig)
     return path
+
+
+# ------------------------------------------------------------------------------------------- paper study
+LEVEL_STYLES = {"coarse": "--", "medium": "-", "fine": ":"}
+
+
+def study_fronts_figure(fronts: list[tuple[str, tuple[str, str], str, list[Point]]], path: Path) -> Path:
+    """Fig. 9: every paper run's front in the C_L–|C_p,min| plane, one colour per case
+    (:func:`optimizer.report.study.case_colour`), circles for design and triangles for tool-path runs, the
+    line style by mesh level; ``fronts`` from :func:`optimizer.report.study.fronts_by_case`."""
+    from optimizer.report.study import case_colour
+
+    fig, ax = plt.subplots(figsize=(6.4, 4.4))
+    for label, c, level, f in fronts:
+        if not f:
+            continue
+        ax.plot([p.cpmin for p in f], [p.cl for p in f], LEVEL_STYLES.get(level, "-."), color=case_colour(c),
+                marker="o" if c[0] == "design" else "^", ms=3.5, lw=1.1, label=f"{label}: {len(f)}")
+    ax.set_xlabel(AXES["cpmin"])
+    ax.set_ylabel(AXES["cl"])
+    ax.grid(alpha=0.3)
+    if any(f for *_, f in fronts):
+        ax.legend(fontsize=7, loc="best", title="case (mesh level): front designs", title_fontsize=7)
+    else:
+        ax.text(0.5, 0.5, "no feasible design yet", transform=ax.transAxes, ha="center", va="center")
+    fig.tight_layout()
+    fig.savefig(path)
+    plt.close(fig)
+    return path
+
+
+def study_pairs_figure(g1, walls: dict[str, dict | None], path: Path) -> Path:
+    """Fig. 10–13: the G1 design and tool-path fronts in the C_L–|C_p,min| plane with the paired designs
+    numbered (top); per pair, the design blade, the tool-path blade and both designs' C_p along the wall
+    against x/L (axis reversed; "not kept" where the run kept no fields file). ``g1``:
+    :class:`optimizer.report.study.G1Pairs`; ``walls``: {design key: arrays of its fields file or None}."""
+    pairs = g1.pairs
+    n = max(len(pairs), 1)
+    fig = plt.figure(figsize=(max(2.3 * n, 7.0), 10.0))
+    grid = fig.add_gridspec(4, n, height_ratios=[1.5, 1, 1, 1])
+    top = fig.add_subplot(grid[0, :])
+    for run, f, colour, marker in ((g1.design, g1.design_front, "C0", "o"),
+                                   (g1.toolpath, g1.toolpath_front, "C3", "^")):
+        top.plot([p.cpmin for p in f], [p.cl for p in f], "-", color=colour, marker=marker, ms=3, lw=0.9,
+                 label=f"{run.name}: front")
+    for pair in pairs:
+        for p, colour in ((pair.design, "C0"), (pair.toolpath, "C3")):
+            if p is not None:
+                top.annotate(str(pair.index), (p.cpmin, p.cl), color=colour, fontsize=8, fontweight="bold",
+                             xytext=(3, 3), textcoords="offset points")
+    top.set_xlabel(AXES["cpmin"])
+    top.set_ylabel(AXES["cl"])
+    top.grid(alpha=0.3)
+    top.legend(fontsize=7)
+    for k, pair in enumerate(pairs):
+        ax = fig.add_subplot(grid[1, k])
+        blade_panel(ax, g1.design, pair.design, f"{pair.index}: design #{pair.design.design.number}")
+        ax = fig.add_subplot(grid[2, k])
+        if pair.toolpath is None:
+            ax.set_axis_off()
+            ax.text(0.5, 0.5, "no tool-path design left", ha="center", va="center", fontsize=7)
+        else:
+            blade_panel(ax, g1.toolpath, pair.toolpath, f"{pair.index}: tool path #{pair.toolpath.design.number}")
+        _pair_cp_panel(fig.add_subplot(grid[3, k]), pair, walls)
+    fig.tight_layout()
+    fig.savefig(path)
+    plt.close(fig)
+    return path
+
+
+def _pair_cp_panel(ax, pair, walls: dict[str, dict | None]) -> None:
+    drawn = False
+    for p, colour, name in ((pair.design, "C0", "design"), (pair.toolpath, "C3", "tool path")):
+        data = walls.get(p.design.key) if p is not None else None
+        if data is None:
+            continue
+        side = data["side"]
+        k = np.isin(side, ("suction", "pressure"))
+        x0, x1 = float(data["x"][k].min()), float(data["x"][k].max())
+        for s, lw in (("suction", 1.0), ("pressure", 0.6)):
+            m = np.flatnonzero(side == s)
+            m = m[np.argsort(data["s"][m])]
+            ax.plot((data["x"][m] - x0) / (x1 - x0), data["cp"][m], "-", color=colour, lw=lw,
+                    label=name if s == "suction" else None)
+        drawn = True
+    ax.set_xlabel("x/L [-]", fontsize=7)
+    ax.set_ylabel("C_p [-]", fontsize=7)
+    ax.tick_params(labelsize=6)
+    ax.grid(alpha=0.3)
+    if drawn:
+        ax.invert_yaxis()
+        ax.legend(fontsize=6)
+    else:
+        ax.text(0.5, 0.5, "fields not kept", transform=ax.transAxes, ha="center", va="center", fontsize=7)

@@ -35,8 +35,30 @@ from optimizer.report.analysis import (
     points,
     table7,
 )
-from optimizer.report.figures import convergence_figure, fields_figure, gallery_figure, health_figure, pareto_figure
+from optimizer.report.figures import (
+    convergence_figure,
+    fields_figure,
+    gallery_figure,
+    health_figure,
+    pareto_figure,
+    study_fronts_figure,
+    study_pairs_figure,
+)
 from optimizer.report.run import Run
+from optimizer.report.study import (
+    C2_LIFT_DROP,
+    LIFT_DIFFERENCE,
+    G1Pairs,
+    case_name,
+    claims,
+    fronts_by_case,
+    g1_pairs,
+    is_study,
+    kept_fields,
+    steadiness,
+    study_levels,
+    table7_rows,
+)
 from optimizer.saving import check_output_directory, write_all
 
 #: The files of a report, by name: each writes its file at the path it is given (a temporary name).
@@ -69,20 +91,23 @@ def write_report(runs: list[Run], out: Path, option: str = "--out") -> Path:
     pairs = list(zip(runs, pts, strict=True))
     files["pareto_fy_cmax.svg"] = partial(pareto_figure, pairs, "cmax", "fy")
     files["pareto_cl_cpmin.svg"] = partial(pareto_figure, pairs, "cpmin", "cl")
-    sections = [_fronts(runs, pts), _summary(runs, pts), _gallery(runs, pts, files), _fields(runs, pts, files),
-                _convergence(runs, files), _health(runs, files), _provenance(runs)]
+    study = is_study(runs)
+    sections = [_fronts(runs, pts), _summary(runs, pts), _study(runs, pts, files) if study else "",
+                _gallery(runs, pts, files), _fields(runs, pts, files), _convergence(runs, files), _health(runs, files),
+                _provenance(runs)]
     _tables(runs, pts, files)
     title = "millfoil report: " + ", ".join(r.name for r in runs)
     now = _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds")
     states = "; ".join(f"{r.name}: {r.campaign.state}, {len(r.designs)} designs, {len(r.generations)} generations"
                        for r in runs)
+    nav = [("fronts", "Pareto fronts"), ("summary", "Summary"), *([("study", "Paper study")] if study else []),
+           ("gallery", "Geometry"), ("fields", "Fields"), ("convergence", "Convergence"), ("health", "Health"),
+           ("provenance", "Provenance")]
     page = (f"<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>{e(title)}</title>"
             f"<style>{_CSS}</style></head><body>\n<h1>{e(title)}</h1>\n"
             f"<p class=\"note\">Generated {e(now)} from the stores (read-only; a running campaign shows what has "
-            f"finished). {e(states)}.</p>\n<nav><a href=\"#fronts\">Pareto fronts</a><a href=\"#summary\">Summary"
-            "</a><a href=\"#gallery\">Geometry</a><a href=\"#fields\">Fields</a><a href=\"#convergence\">Convergence"
-            "</a><a href=\"#health\">Health</a>"
-            "<a href=\"#provenance\">Provenance</a></nav>\n" + "\n".join(sections) + "\n</body></html>\n")
+            f"finished). {e(states)}.</p>\n<nav>" + "".join(f"<a href=\"#{a}\">{t}</a>" for a, t in nav)
+            + "</nav>\n" + "\n".join(x for x in sections if x) + "\n</body></html>\n")
     files["index.html"] = lambda path: path.write_text(page, encoding="utf-8")     # renamed last
     check_output_directory(out, option, files=list(files))
     write_all((out / name, write) for name, write in files.items())
@@ -133,6 +158,153 @@ def _summary(runs: list[Run], pts) -> str:
             "(Vessaz et al. 2013; its channel and mesh differ: docs/explanation/campaigns.md). Table: "
             "<a href=\"summary.csv\">summary.csv</a>.</p>\n"
             f"<table><tr><th class=\"l\">run</th>{head}</tr>{''.join(rows)}</table>")
+
+
+def _study(runs: list[Run], pts, files: Files) -> str:
+    """The "Paper study" section (:mod:`optimizer.report.study`): Table 7 side by side, Fig. 9, the G1 pairs
+    of Fig. 10–13 at each mesh level that has both G1 runs, and the claims table."""
+    parts = ["<h2 id=\"study\">Paper study</h2>\n<p class=\"note\">The runs of the paper's cases (blade family "
+             "and objectives max |F_Y|, min C_max) beside Vessaz et al. (2013), compared within one mesh level. "
+             "The paper's channel and mesh differ from ours (docs/explanation/campaigns.md): compare magnitudes "
+             "and orderings, not digits. Verdict rules: docs/explanation/reports.md.</p>",
+             _study_table7(runs, pts, files)]
+    files["study_fronts.svg"] = partial(study_fronts_figure, fronts_by_case(runs, pts))
+    parts.append("<h3>Fronts of the cases (Fig. 9)</h3>" + _img("study_fronts.svg", "C_L against |C_p,min|, "
+                 "the front of each case"))
+    levels = study_levels(runs, pts)
+    ignored = [name for lv in levels for name in lv.ignored]
+    if ignored:
+        parts.append(f"<p class=\"note\">Not used in the comparisons (a run of the same case and mesh level "
+                     f"comes first): {e(', '.join(ignored))}.</p>")
+    parts.append("<h3>Designs along the G1 fronts (Fig. 10–13)</h3>")
+    found = [g for lv in levels if (g := g1_pairs(lv)) is not None]
+    if not found:
+        parts.append("<p class=\"note\">Needs the G1 design and G1 tool-path runs at one mesh level.</p>")
+    for k, g in enumerate(found):
+        parts.append(_study_pairs(g, k, files))
+    parts.append(_study_claims(runs, pts, files))
+    return "\n".join(parts)
+
+
+def _pct(value: float | None) -> str:
+    return "-" if value is None else f"{100 * value:+.1f} %"
+
+
+def _study_table7(runs: list[Run], pts, files: Files) -> str:
+    rows = table7_rows(runs, pts)
+    head = "".join(f"<th>{e(label)}</th><th class=\"paper\">paper</th><th>Δ</th>" for label, _, _ in TABLE7_COLUMNS)
+    body = []
+    for t in rows:
+        cells = "".join(
+            ("<td>-</td>" if t.ours[q] is None else f"<td>{t.ours[q][0]:.2f} <span class=\"note\">(#{t.ours[q][2]})"
+             "</span></td>") + f"<td class=\"paper\">{t.paper_value(q):.2f}</td><td>{_pct(t.relative(q))}</td>"
+            for _, q, _ in TABLE7_COLUMNS)
+        body.append(f"<tr><td class=\"l\">{e(t.run.name)}</td><td class=\"l\">{e(case_name(t.case))}</td>"
+                    f"<td class=\"l\">{e(t.level)}</td><td>{t.evaluations}</td>{cells}</tr>")
+    files["table7.csv"] = partial(_study_table7_csv, rows)
+    return ("<h3>Table 7 side by side</h3>\n<p class=\"note\">Ours (extremes over the feasible accepted designs, "
+            "design number in brackets), the paper's Table 7 value beside it and Δ = (ours − paper) / paper; the "
+            "mesh level and the CFD evaluations each run spent (the paper: about 5 000 per case, medium mesh). "
+            "Table: <a href=\"table7.csv\">table7.csv</a>.</p>\n<table><tr><th class=\"l\">run</th>"
+            f"<th class=\"l\">case</th><th class=\"l\">mesh</th><th>CFD evaluations</th>{head}</tr>"
+            f"{''.join(body)}</table>")
+
+
+def _study_table7_csv(rows, path: Path) -> None:
+    cols = [q for _, q, _ in TABLE7_COLUMNS]
+    with open(path, "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(["run", "mode", "continuity", "mesh_level", "cfd_evaluations",
+                    *[f"{q}{suffix}" for q in cols for suffix in ("", "_paper", "_relative", "_design", "_class")]])
+        for t in rows:
+            values = []
+            for q in cols:
+                ours, rel = t.ours[q], t.relative(q)
+                values += [repr(ours[0]) if ours else "", t.paper_value(q), repr(rel) if rel is not None else "",
+                           ours[2] if ours else "", ours[1] if ours else ""]
+            w.writerow([t.run.name, t.case[0], t.case[1], t.level, t.evaluations, *values])
+
+
+def _walls(g: G1Pairs) -> tuple[dict[str, dict | None], list[str]]:
+    """The fields arrays of the paired designs that have a readable file, and the unreadable ones."""
+    walls, unreadable = {}, []
+    for pair in g.pairs:
+        for run, p in ((g.design, pair.design), (g.toolpath, pair.toolpath)):
+            path = kept_fields(run, p) if p is not None else None
+            if path is None:
+                continue
+            try:
+                walls[p.design.key] = read_fields(path)
+            except (OSError, ValueError, KeyError, zipfile.BadZipFile) as exc:      # being replaced, or damaged
+                unreadable.append(f"{run.name} #{p.design.number} ({type(exc).__name__})")
+    return walls, unreadable
+
+
+def _study_pairs(g: G1Pairs, k: int, files: Files) -> str:
+    walls, unreadable = _walls(g)
+    files[f"g1_pairs_{k}.svg"] = partial(study_pairs_figure, g, walls)
+    files[f"g1_pairs_{k}.csv"] = partial(_pairs_csv, g)
+
+    def side(p) -> str:
+        if p is None:
+            return "<td>-</td>" * 4
+        return (f"<td>#{p.design.number}</td><td>{p.cl:.3f}</td><td>{p.cpmin:.3f}</td>"
+                f"<td class=\"l\">{e(steadiness(p, 'fy'))}{'' if p.design.key in walls else ', fields not kept'}</td>")
+
+    rows = "".join(f"<tr><td>{x.index}</td>{side(x.design)}{side(x.toolpath)}"
+                   f"<td>{'-' if x.distance is None else f'{x.distance:.3f}'}</td></tr>" for x in g.pairs)
+    note = f" Unreadable fields file(s): {e(', '.join(unreadable))}." if unreadable else ""
+    return (f"<h4>{e(g.level)} mesh: {e(g.design.name)} and {e(g.toolpath.name)}</h4>\n<p class=\"note\">Six "
+            "designs spread evenly (by arc length) along the G1 design front in (C_L, |C_p,min|) normalised over "
+            "both fronts, each paired with the nearest unused design of the G1 tool-path front, nearest pairs "
+            "first (the paper's points are \"as near as possible for both cases\"); blades rebuilt from their "
+            "stored parameters, C_p along the wall where the run kept the design's fields file." + note
+            + f" Table: <a href=\"g1_pairs_{k}.csv\">g1_pairs_{k}.csv</a>.</p>\n"
+            + _img(f"g1_pairs_{k}.svg", "G1 design and tool-path designs paired along their fronts")
+            + "<table><tr><th>pair</th><th>design</th><th>C_L</th><th>|C_p,min|</th><th class=\"l\">class</th>"
+            "<th>tool path</th><th>C_L</th><th>|C_p,min|</th><th class=\"l\">class</th><th>distance</th></tr>"
+            f"{rows}</table>")
+
+
+def _pairs_csv(g: G1Pairs, path: Path) -> None:
+    with open(path, "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(["pair", "distance", *[f"{s}_{c}" for s in ("design", "toolpath")
+                                          for c in ("run", "number", "key", "c_l", "cp_min_abs", "fy_span_N",
+                                                    "c_max", "class")]])
+        for x in g.pairs:
+            cells = []
+            for run, p in ((g.design, x.design), (g.toolpath, x.toolpath)):
+                cells += ([run.name, p.design.number, p.design.key, repr(p.cl), repr(p.cpmin), repr(p.fy),
+                           repr(p.cmax), steadiness(p, "fy")] if p is not None else [run.name, *[""] * 7])
+            w.writerow([x.index, "" if x.distance is None else repr(x.distance), *cells])
+
+
+def _study_claims(runs: list[Run], pts, files: Files) -> str:
+    found = claims(runs, pts)
+    files["claims.csv"] = partial(_claims_csv, found)
+    rows = "".join(
+        f"<tr><td class=\"l\">({e(c.key)}) {e(c.statement)}</td><td class=\"l\">{e(c.level)}</td>"
+        f"<td class=\"l\">{e(c.ours)}</td><td class=\"l paper\">{e(c.paper)}</td><td class=\"l\"><b>{e(c.verdict)}"
+        f"</b></td><td class=\"l\">{'<br>'.join(e(u.describe()) for u in c.used) or '-'}</td></tr>" for c in found)
+    low, high = C2_LIFT_DROP
+    return ("<h3>The paper's conclusions</h3>\n<p class=\"note\">Each statement of the paper's §4 tested on our runs "
+            f"of one mesh level. (a) holds when every continuity class with both approaches differs by less than "
+            f"{100 * LIFT_DIFFERENCE:.0f} % in max |F_Y|; (b) when min C_max of the tool path exceeds the design's in "
+            f"every such class; (c) when the C2 lift drop lies within {100 * low:.0f}–{100 * high:.0f} % for both "
+            "approaches. A test that changes its answer within the oscillation amplitudes of the designs compared "
+            "cannot tell; so does a claim without the runs it needs. The paper's column applies the same test to its "
+            "own Table 7. Table: <a href=\"claims.csv\">claims.csv</a>.</p>\n<table><tr><th class=\"l\">claim</th>"
+            "<th class=\"l\">mesh</th><th class=\"l\">ours</th><th class=\"l paper\">paper, Table 7</th>"
+            f"<th class=\"l\">verdict</th><th class=\"l\">designs used</th></tr>{rows}</table>")
+
+
+def _claims_csv(found, path: Path) -> None:
+    with open(path, "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(["claim", "mesh_level", "verdict", "ours", "paper", "designs"])
+        for c in found:
+            w.writerow([c.key, c.level, str(c.verdict), c.ours, c.paper, " | ".join(u.describe() for u in c.used)])
 
 
 def _gallery(runs: list[Run], pts, files: Files) -> str:
