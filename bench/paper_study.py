@@ -1,0 +1,111 @@
+"""The paper's study: its eight cases (``configs/paper/{design,toolpath}_{g1,c1,g2,c2}.yaml``) run as ordinary
+campaigns, one after the other, at one mesh level, with the surrogate-assisted NSGA-II; then what each cost.
+
+Each case is ``millfoil run configs/paper/<case>.yaml --out OUT/<level>/<case> --set mesh.level=<level> --set
+algorithm.method=surrogate`` (the paper's population 100 and 50 generations: 100 + 49 × 20 = 1 080 CFD
+evaluations); a case that was interrupted is continued with ``millfoil resume``, a finished one is left
+alone, so the study spans sessions (the stores are the state). ``--report-only`` prints, per case, the
+state, the CFD evaluations (failed ones included), the CPU hours of the workers and the driver's wall time
+— the sum over generations of the time from the generation's first submission to its end, so that the
+hours between sessions do not count — and the command that draws the report of all of them.
+
+    python bench/paper_study.py --level coarse                 # the eight cases, hours on 2 cores
+    python bench/paper_study.py --level medium --cases toolpath_g1
+    python bench/paper_study.py --level coarse --report-only
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import platform
+import subprocess
+import sys
+from datetime import datetime
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+CASES = tuple(f"{mode}_{continuity}" for continuity in ("g1", "c1", "g2", "c2") for mode in ("design", "toolpath"))
+
+
+def run_case(case: str, level: str, directory: Path, workers: int | None) -> None:
+    """Run, or continue, one case in ``directory`` (nothing when it is finished)."""
+    from optimizer.campaign.store import STORE_NAME, Store
+
+    cli = [sys.executable, "-m", "optimizer.cli"]
+    execution = [f"execution.workers={workers}"] if workers else []
+    store = directory / STORE_NAME
+    if store.exists():
+        with Store(store, readonly=True) as s:
+            row = s.campaign()
+        if row is not None and row.state == "finished":
+            return
+    if store.exists():
+        command = [*cli, "resume", str(directory), *(a for kv in execution for a in ("--set", kv))]
+    else:
+        overrides = [f"mesh.level={level}", "algorithm.method=surrogate", *execution]
+        command = [*cli, "run", str(ROOT / "configs" / "paper" / f"{case}.yaml"), "--out", str(directory),
+                   *(a for kv in overrides for a in ("--set", kv))]
+    print(" ".join(command[1:]), file=sys.stderr, flush=True)
+    subprocess.run(command, check=True, env={**os.environ, "PYTHONPATH": str(ROOT)})
+
+
+def cost(directory: Path) -> dict | None:
+    """State, CFD evaluations, CPU hours and driver wall hours of the run in ``directory`` (None: no store)."""
+    from optimizer.campaign.status import EvaluationStatus
+    from optimizer.campaign.store import STORE_NAME, Store
+
+    if not (directory / STORE_NAME).exists():
+        return None
+    with Store(directory / STORE_NAME, readonly=True) as s:
+        state = s.campaign().state
+        rows = [r for r in s.evaluations() if r.status != EvaluationStatus.INFEASIBLE]
+        generations = s.generations()
+    cpu = sum(sum((r.seconds or {}).values()) or (r.wall_seconds or 0.0) for r in rows) / 3600
+    wall = 0.0
+    for g in generations:
+        started = [r.submitted for r in rows if r.generation == g.generation and r.submitted]
+        if started:
+            wall += (_time(g.finished) - _time(min(started))).total_seconds()
+    return {"state": state, "evaluations": len(rows), "generations": len(generations), "cpu_hours": cpu,
+            "wall_hours": wall / 3600}
+
+
+def _time(text: str) -> datetime:
+    return datetime.fromisoformat(text)
+
+
+def summary(out: Path, level: str, cases) -> None:
+    print(f"# the paper's cases, surrogate-assisted, {level} mesh; machine {platform.node()}, {os.cpu_count()} cores")
+    print("| case | state | generations | CFD evaluations | CPU hours | wall hours |")
+    print("|---|---|---|---|---|---|")
+    for case in cases:
+        c = cost(out / level / case)
+        if c is None:
+            print(f"| {case} | not started | | | | |")
+            continue
+        print(f"| {case} | {c['state']} | {c['generations']} | {c['evaluations']} | {c['cpu_hours']:.2f} "
+              f"| {c['wall_hours']:.2f} |")
+    runs = " ".join(str(out / level / case) for case in cases if (out / level / case).exists())
+    print(f"\nmillfoil report {runs} --out {out / level / 'report'}")
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--level", choices=["coarse", "medium", "fine"], default="coarse")
+    parser.add_argument("--cases", nargs="+", default=list(CASES), choices=list(CASES))
+    parser.add_argument("--workers", type=int, help="execution.workers of every run (default: one per core)")
+    parser.add_argument("--out", type=Path, default=ROOT / "runs" / "examples" / "paper")
+    parser.add_argument("--report-only", action="store_true", help="summarise the stores already there")
+    args = parser.parse_args()
+    if not args.report_only:
+        for case in args.cases:
+            run_case(case, args.level, args.out / args.level / case, args.workers)
+    summary(args.out, args.level, args.cases)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
