@@ -11,8 +11,9 @@ The optimiser sees a problem, not a CFD code (STYLE.md §8). A :class:`CampaignP
 * what an evaluation's record is worth (:meth:`assess`): status under the convergence policy, the
   objectives as the user states them, the vector pymoo minimises (a ``max`` objective negated) and the
   constraint vector. A design without usable values (failed mesh, diverged solve, rejected oscillation,
-  timeout...) enters the optimiser as a violated constraint (``evaluation`` = 1) with objectives
-  :data:`FAILED_VALUE`, so NSGA-II ranks it behind every feasible design but never stops on it.
+  timeout...) enters the optimiser as a violated constraint (``evaluation`` = :data:`FAILED_VIOLATION`)
+  with objectives :data:`FAILED_VALUE`, so NSGA-II ranks it behind every design with values, feasible
+  or not, but never stops on it.
 
 Constraint vector, in order: the geometric constraints (:func:`geometry.constraint_names`; none for the
 analytic problem), the analytic problem's own (MW: g1, g2),
@@ -40,6 +41,12 @@ from solver.convergence import ConvergenceClass
 #: Minimised objective value of a design without usable values (pymoo needs finite numbers; it ranks
 #: such designs by their constraint violation only).
 FAILED_VALUE = 1.0e12
+#: The ``evaluation`` constraint of a design without usable values: a violation larger than any design
+#: with values can have, so that NSGA-II's constrained domination ranks a failed design behind every
+#: evaluated one, infeasible ones included. With 1, a design that violated a CFD constraint by more than
+#: 1 (an analytic MW problem's g, a ``constraints:`` bound exceeded by more than its own size) ranked
+#: behind a diverged one, and a run drifted into the region where solves fail.
+FAILED_VIOLATION = 1.0e12
 
 
 class EmptySpaceError(ValueError):
@@ -161,13 +168,13 @@ class CampaignProblem:
 
     def failed(self, status: str, reason: str, feasibility: Feasibility | None = None,
                convergence: str | None = None) -> Assessment:
-        """A feasible design without usable values: ``evaluation`` = 1 (violated). status: an
+        """A feasible design without usable values: ``evaluation`` = :data:`FAILED_VIOLATION`. status: an
         :class:`EvaluationStatus` or its string (ValueError for another)."""
         status = EvaluationStatus.parse(status)
         geometric = feasibility.values if feasibility is not None else (0.0,) * len(self.geometric_names)
         constraints = {n: 0.0 for n in self.constraint_names}
         constraints.update(zip(self.geometric_names, geometric, strict=True))
-        constraints["evaluation"] = 1.0
+        constraints["evaluation"] = FAILED_VIOLATION
         return Assessment(status, reason, convergence, None, [FAILED_VALUE] * len(self.objectives), constraints)
 
     def assess(self, record: EvaluationRecord | Mapping[str, Any],

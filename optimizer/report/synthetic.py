@@ -132,7 +132,7 @@ def _row(key: str, generation: int, names: list[str], values: dict, rng: np.rand
                              minimised=[1e12, 1e12], constraints={**constraints, "eq22_curvature": 0.18})
     if draw < 0.2:
         return EvaluationRow(**base, status=Status.MESH_FAILED, reason="a cell is below the quality thresholds",
-                             minimised=[1e12, 1e12], constraints={**constraints, "evaluation": 1.0},
+                             minimised=[1e12, 1e12], constraints={**constraints, "evaluation": 1e12},
                              seconds={"geometry": 0.2, "mesh": 3.0, "total": 3.2}, wall_seconds=3.3)
     cls = (ConvergenceClass.OSCILLATING if draw > 0.75
            else ConvergenceClass.STATIONARY if draw > 0.6 else ConvergenceClass.CONVERGED)

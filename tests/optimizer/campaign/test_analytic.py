@@ -77,3 +77,21 @@ def test_no_failures_keep_the_design_keys(tmp_path):
 def test_an_unknown_problem_names_the_allowed_ones(tmp_path):
     with pytest.raises(ConfigError, match=r"analytic.problem.*zdt1.*mw7"):
         campaign(tmp_path, "{problem: zdt9}")
+
+
+def test_a_failed_design_ranks_behind_every_evaluated_one(tmp_path):
+    """With injected failures on a constrained problem, plain NSGA-II must not drift into the failing region:
+    a failed design ranks behind designs that violate the problem's own constraints by any amount."""
+    from optimizer.campaign.config import load_campaign
+    from optimizer.campaign.driver import run_campaign
+    from optimizer.campaign.store import STORE_NAME, Store
+
+    path = tmp_path / "mw2.yaml"
+    path.write_text("analytic: {problem: mw2, variables: 15, failures: {region: 0.07, random: 0.02, seed: 0}}\n"
+                    "algorithm: {population: 40, generations: 12, seed: 1}\nexecution: {backend: inline}\n"
+                    "output: {sync: normal}\n")
+    run_campaign(load_campaign(path, []), tmp_path / "run")
+    with Store(tmp_path / "run" / STORE_NAME, readonly=True) as store:
+        last = [r for r in store.evaluations() if r.generation >= 9]
+    failed = sum(not r.ok for r in last) / len(last)
+    assert failed < 0.2, f"{failed:.0%} of the last generations' designs failed"

@@ -12,6 +12,7 @@ import pytest
 from optimizer.campaign import record
 from optimizer.campaign.config import load_campaign
 from optimizer.campaign.driver import CampaignError, final_population, resume_campaign, run_campaign
+from optimizer.campaign.problem import FAILED_VIOLATION
 from optimizer.campaign.runner import TaskResult
 from optimizer.campaign.store import STORE_NAME, Store
 from optimizer.evaluation import Evaluation
@@ -156,7 +157,8 @@ def test_failed_evaluations_are_recorded_and_the_campaign_finishes(tmp_path, fai
     by_status = {s: [r for r in rows if r.status == s] for s in {r.status for r in rows}}
     assert {"ok", "mesh_failed", "diverged"} <= set(by_status), set(by_status)
     for r in by_status["mesh_failed"]:
-        assert "MeshQualityError" in r.reason and r.constraints["evaluation"] == 1.0 and r.objectives is None
+        assert "MeshQualityError" in r.reason and r.objectives is None
+        assert r.constraints["evaluation"] == FAILED_VIOLATION
     for r in by_status["diverged"]:
         assert r.iterations == 57 and r.cells == 5000
     # infeasible geometries are stored with their reason and never reach the runner
