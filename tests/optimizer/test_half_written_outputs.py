@@ -16,8 +16,6 @@ from pathlib import Path
 
 import pytest
 
-from optimizer.campaign.config import load_campaign
-from optimizer.campaign.driver import run_campaign
 from optimizer.campaign.store import STORE_NAME, Store
 from optimizer.cli import main
 
@@ -27,12 +25,9 @@ BLADE = Path(__file__).resolve().parents[2] / "configs" / "examples" / "table5_g
 
 
 @pytest.fixture(scope="module")
-def run(tmp_path_factory) -> Path:
-    """A finished analytic campaign's run directory (no CFD, about 0.2 s)."""
-    base = tmp_path_factory.mktemp("outputs")
-    (base / "zdt1.yaml").write_text(ZDT1)
-    run_campaign(load_campaign(base / "zdt1.yaml", []), base / "run")
-    return base / "run"
+def run(finished_zdt1) -> Path:
+    """A finished analytic campaign's run directory (no CFD)."""
+    return finished_zdt1
 
 
 def _one_error_line(err: str) -> str:

@@ -384,14 +384,8 @@ SQL_DAMAGES = ["UPDATE evaluations SET {column} = {value} WHERE rowid = (SELECT 
 
 
 @pytest.fixture(scope="module")
-def finished_run(tmp_path_factory) -> Path:
-    from optimizer.campaign.config import load_campaign
-    from optimizer.campaign.driver import run_campaign
-
-    base = tmp_path_factory.mktemp("campaign")
-    (base / "c.yaml").write_text(ZDT1)
-    run_campaign(load_campaign(base / "c.yaml", []), base / "run")
-    return base / "run"
+def finished_run(finished_zdt1) -> Path:
+    return finished_zdt1
 
 
 def _damage_bytes(path: Path, how: str, at: float, data: bytes) -> None:

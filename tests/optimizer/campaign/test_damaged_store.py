@@ -19,8 +19,6 @@ from pathlib import Path
 
 import pytest
 
-from optimizer.campaign.config import load_campaign
-from optimizer.campaign.driver import run_campaign
 from optimizer.campaign.store import STORE_NAME, Store, StoreDamaged, inspect_store
 from optimizer.cli import main
 from optimizer.config import ConfigError
@@ -33,12 +31,9 @@ SIDE_FILES = {"driver.lock", f"{STORE_NAME}-wal", f"{STORE_NAME}-shm"}
 
 
 @pytest.fixture(scope="module")
-def pristine(tmp_path_factory) -> Path:
+def pristine(finished_zdt1) -> Path:
     """A finished analytic campaign's run directory (6 + 6 evaluations, 2 generations)."""
-    base = tmp_path_factory.mktemp("pristine")
-    (base / "zdt1.yaml").write_text(ZDT1)
-    run_campaign(load_campaign(base / "zdt1.yaml", []), base / "run")
-    return base / "run"
+    return finished_zdt1
 
 
 def _sql(statement: str):
