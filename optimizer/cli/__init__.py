@@ -49,13 +49,16 @@ def main(argv: Sequence[str] | None = None) -> int:
         _handle_signals(_raise_interrupt)
         if pending:
             raise KeyboardInterrupt(f"signal {pending[0]}")
-        return _main(parser, argv)
+        code = _main(parser, argv)
     except KeyboardInterrupt:
         print("\nmillfoil: interrupted", file=sys.stderr)
+        # the command has stopped: a second signal on the way out (Ctrl-C pressed twice, a group's
+        # signal arriving late) must not turn exit status 130 into death by the signal
+        _handle_signals(lambda signum, frame: None)
         return EXIT_INTERRUPTED
-    finally:
-        for signum, handler in previous.items():
-            signal.signal(signum, handler)
+    for signum, handler in previous.items():
+        signal.signal(signum, handler)
+    return code
 
 
 def _raise_interrupt(signum, frame):

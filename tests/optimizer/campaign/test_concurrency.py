@@ -118,17 +118,28 @@ def test_a_store_that_never_evaluated_a_design_is_replaced(tmp_path):
         run_campaign(campaign(tmp_path), run)
 
 
+def _generations(store: Path) -> int:
+    try:
+        with Store(store, readonly=True) as s:
+            return len(s.generations())
+    except Exception:            # not there yet
+        return 0
+
+
 @pytest.mark.slow
 def test_two_real_drivers_on_one_directory(tmp_path):
     """Started together into a fresh directory: one runs to the end, the other is refused with exit 2 and one
     line naming the holder; then a `resume` started while the winner runs is refused the same way."""
     config = tmp_path / "c.yaml"
-    config.write_text(ZDT1.replace("variables: 4}", "variables: 4, delay: 0.05}").replace("generations: 2",
-                                                                                          "generations: 8"))
+    config.write_text(ZDT1.replace("variables: 4}", "variables: 4, delay: 0.2}").replace("generations: 2",
+                                                                                         "generations: 8"))
     run = tmp_path / "run"
     command = [sys.executable, "-m", "optimizer.cli", "run", str(config), "--out", str(run), "--quiet"]
     procs = [subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True) for _ in range(2)]
-    time.sleep(3.0)
+    t0 = time.monotonic()
+    while not _generations(run / STORE_NAME):        # the winner is inside its campaign (about 10 s in all)
+        assert time.monotonic() - t0 < 120
+        time.sleep(0.1)
     resume = subprocess.run([sys.executable, "-m", "optimizer.cli", "resume", str(run), "--quiet"],
                             capture_output=True, text=True, timeout=120)
     results = [(p.wait(timeout=300), *p.communicate()) for p in procs]
