@@ -350,9 +350,16 @@ def _paper(c: Case, quantity: str) -> float:
     return PAPER_TABLE7[c][[q for _, q, _ in TABLE7_COLUMNS].index(quantity)]
 
 
-def _both(level: StudyLevel, continuity: str) -> tuple[tuple[Run, list[Point]], tuple[Run, list[Point]]] | None:
-    d, t = level.cases.get(("design", continuity)), level.cases.get(("toolpath", continuity))
-    return (d, t) if d and t else None
+def _extremes(level: StudyLevel, quantity: str, best_max: bool):
+    """Per continuity class with both approaches and a value of ``quantity`` in each: ``(continuity,
+    (design run, points, its extreme point), (tool-path run, points, its extreme point))``."""
+    for k in CONTINUITIES:
+        d, t = level.cases.get(("design", k)), level.cases.get(("toolpath", k))
+        if not (d and t):
+            continue
+        ed, et = extreme(d[1], quantity, best_max), extreme(t[1], quantity, best_max)
+        if ed is not None and et is not None:
+            yield k, (*d, ed), (*t, et)
 
 
 def _amplitude(p: Point, quantity: str) -> float:
@@ -362,14 +369,7 @@ def _amplitude(p: Point, quantity: str) -> float:
 def claim_lift_difference(level: StudyLevel) -> Claim:
     """(a) The lift difference between the two approaches is always below 4 % (module docstring: rule)."""
     verdicts, ours, paper, designs = [], [], [], []
-    for k in CONTINUITIES:
-        both = _both(level, k)
-        if both is None:
-            continue
-        (rd, pd), (rt, pt) = both
-        fd, ft = extreme(pd, "fy", True), extreme(pt, "fy", True)
-        if fd is None or ft is None:
-            continue
+    for k, (rd, pd, fd), (rt, pt, ft) in _extremes(level, "fy", True):
         top, diff = max(fd.fy, ft.fy), abs(fd.fy - ft.fy)
         u = _amplitude(fd, "fy") + _amplitude(ft, "fy")
         verdicts.append(decide(max(diff - u, 0.0), diff + u, lambda d, top=top: d / top < LIFT_DIFFERENCE))
@@ -385,14 +385,7 @@ def claim_lift_difference(level: StudyLevel) -> Claim:
 def claim_cmax_toolpath(level: StudyLevel) -> Claim:
     """(b) C_max (and |C_p,min|) is always greater for the tool-path approach (module docstring: rule)."""
     verdicts, ours, paper, designs = [], [], [], []
-    for k in CONTINUITIES:
-        both = _both(level, k)
-        if both is None:
-            continue
-        (rd, pd), (rt, pt) = both
-        cd, ct = extreme(pd, "cmax", False), extreme(pt, "cmax", False)
-        if cd is None or ct is None:
-            continue
+    for k, (rd, pd, cd), (rt, pt, ct) in _extremes(level, "cmax", False):
         delta, u = ct.cmax - cd.cmax, _amplitude(cd, "cmax") + _amplitude(ct, "cmax")
         verdicts.append(decide(delta - u, delta + u, lambda d: d > 0.0))
         ours.append(f"{k} {ct.cmax:.2f} vs {cd.cmax:.2f} m/s (|C_p,min| {ct.cpmin:.2f} vs {cd.cpmin:.2f})")
