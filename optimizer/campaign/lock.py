@@ -20,6 +20,7 @@ import fcntl
 import json
 import os
 import socket
+import time
 from datetime import UTC, datetime
 from pathlib import Path
 
@@ -84,11 +85,19 @@ class DriverLock:
         self.release()
 
 
-def _holder(handle) -> str:
-    """``millfoil run, pid 123 on node7 since 2026-…`` from the lock file (what its holder wrote)."""
-    handle.seek(0)
-    try:
-        info = json.loads(handle.read() or "{}")
-        return (f"millfoil {info['command']}, pid {info['pid']} on {info['host']} since {info['since']}")
-    except (ValueError, KeyError, TypeError):
-        return "holder unknown"
+def _holder(handle, patience: float = 1.0) -> str:
+    """``millfoil run, pid 123 on node7 since 2026-…`` from the lock file (what its holder wrote).
+
+    The holder writes the file just after it takes the lock, so a driver refused in that instant finds it
+    empty or half written: read again for up to ``patience`` seconds before calling the holder unknown.
+    """
+    deadline = time.monotonic() + patience
+    while True:
+        handle.seek(0)
+        try:
+            info = json.loads(handle.read() or "{}")
+            return f"millfoil {info['command']}, pid {info['pid']} on {info['host']} since {info['since']}"
+        except (ValueError, KeyError, TypeError):
+            if time.monotonic() > deadline:
+                return "holder unknown"
+            time.sleep(0.02)

@@ -60,6 +60,29 @@ def test_a_second_driver_is_refused_naming_the_holder(tmp_path, holder):
     assert not (run / STORE_NAME).exists()                   # refused before it wrote anything
 
 
+def test_a_driver_refused_while_the_holder_writes_its_details_still_names_it(tmp_path):
+    """The holder writes who it is just after it takes the lock; a driver refused in between waits for it."""
+    import fcntl
+    import threading
+    run = tmp_path / "run"
+    run.mkdir()
+    handle = open(run / LOCK_NAME, "a+", encoding="utf-8")   # noqa: SIM115
+    fcntl.lockf(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)       # a forked child would not see this lock: use a thread
+    late = threading.Timer(0.4, lambda: (handle.write('{"host": "h", "pid": 7, "command": "run", '
+                                                      '"since": "2026-01-01T00:00:00+00:00"}\n'), handle.flush()))
+    try:
+        late.start()
+        script = ("import sys\nfrom optimizer.campaign.lock import DriverLock, DirectoryInUse\n"
+                  "try:\n    DriverLock(sys.argv[1], 'resume').acquire()\nexcept DirectoryInUse as e:\n"
+                  "    print(e)\n")
+        out = subprocess.run([sys.executable, "-c", script, str(run)], capture_output=True, text=True, timeout=60,
+                             env={**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[3])})
+        assert "(millfoil run, pid 7 on h since 2026-01-01" in out.stdout, out
+    finally:
+        late.join()
+        handle.close()
+
+
 def test_resume_is_refused_while_the_driver_lives(tmp_path, holder):
     run, proc = holder
     (run / STORE_NAME).touch()
