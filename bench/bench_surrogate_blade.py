@@ -43,12 +43,12 @@ def run_dirs(out: Path, case: str, methods, seeds) -> list[tuple[str, int, Path]
 
 
 def run_one(case: str, method: str, seed: int, directory: Path, workers: int | None) -> None:
-    from optimizer.campaign.store import STORE_NAME, Store
+    from optimizer.campaign.store import STORE_NAME, Store, stored
 
     cli = [sys.executable, "-m", "optimizer.cli"]
     store = directory / STORE_NAME
     execution = [f"execution.workers={workers}"] if workers else []
-    if store.exists():
+    if stored(store):
         with Store(store, readonly=True) as s:
             row = s.campaign()
         if row is not None and row.state == "finished":

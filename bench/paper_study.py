@@ -32,17 +32,17 @@ CASES = tuple(f"{mode}_{continuity}" for continuity in ("g1", "c1", "g2", "c2") 
 
 def run_case(case: str, level: str, directory: Path, workers: int | None) -> None:
     """Run, or continue, one case in ``directory`` (nothing when it is finished)."""
-    from optimizer.campaign.store import STORE_NAME, Store
+    from optimizer.campaign.store import STORE_NAME, Store, stored
 
     cli = [sys.executable, "-m", "optimizer.cli"]
     execution = [f"execution.workers={workers}"] if workers else []
     store = directory / STORE_NAME
-    if store.exists():
+    if stored(store):
         with Store(store, readonly=True) as s:
             row = s.campaign()
         if row is not None and row.state == "finished":
             return
-    if store.exists():
+    if stored(store):
         command = [*cli, "resume", str(directory), *(a for kv in execution for a in ("--set", kv))]
     else:
         overrides = [f"mesh.level={level}", "algorithm.method=surrogate", *execution]
@@ -55,9 +55,9 @@ def run_case(case: str, level: str, directory: Path, workers: int | None) -> Non
 def cost(directory: Path) -> dict | None:
     """State, CFD evaluations, CPU hours and driver wall hours of the run in ``directory`` (None: no store)."""
     from optimizer.campaign.status import EvaluationStatus
-    from optimizer.campaign.store import STORE_NAME, Store
+    from optimizer.campaign.store import STORE_NAME, Store, stored
 
-    if not (directory / STORE_NAME).exists():
+    if not stored(directory / STORE_NAME):
         return None
     with Store(directory / STORE_NAME, readonly=True) as s:
         state = s.campaign().state

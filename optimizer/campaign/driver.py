@@ -39,10 +39,11 @@ from optimizer.campaign.config import CampaignConfig
 from optimizer.campaign.fields import prune_fields, with_fields
 from optimizer.campaign.lock import DriverLock
 from optimizer.campaign.offspring import make_offspring
+from optimizer.campaign.packed import packed_path, unpack
 from optimizer.campaign.problem import Assessment, CampaignProblem, Feasibility, initial_population, make_problem
 from optimizer.campaign.record import EvaluationRecord
 from optimizer.campaign.status import EvaluationStatus
-from optimizer.campaign.store import STORE_NAME, EvaluationRow, GenerationRow, Store, check_values, now
+from optimizer.campaign.store import STORE_NAME, EvaluationRow, GenerationRow, Store, check_values, now, stored
 
 #: pymoo never stops the loop itself: the driver counts generations.
 _NO_TERMINATION = ("n_gen", 10**9)
@@ -116,6 +117,9 @@ def run_campaign(config: CampaignConfig, directory: str | Path | None = None, *,
     path = directory / STORE_NAME
     created = not directory.exists()
     with DriverLock(directory, "run", log) as lock:
+        if packed_path(path).exists() and not path.exists():
+            raise CampaignError(f"{directory} already holds a campaign, packed: continue it with `millfoil resume "
+                                f"{directory}` or choose another output directory")
         if path.exists():
             with Store(path, readonly=True) as existing:
                 started = existing.campaign() is not None
@@ -173,9 +177,13 @@ def resume_campaign(directory: str | Path, *, runner=None, fn: Callable[[dict], 
     :func:`saved_config`)."""
     directory = Path(directory)
     path = directory / STORE_NAME
-    if not path.exists():
+    if not stored(path):
         raise CampaignError(f"no campaign store in {directory} (expected {path})")
     with DriverLock(directory, "resume", log):
+        if not path.exists():          # packed: a campaign continues in its store
+            packing = unpack(path, locked=True)
+            (log or (lambda _line: None))(f"unpacked {packed_path(path).name} ({packing.before:,} bytes) into "
+                                          f"{path.name} ({packing.after:,} bytes)")
         with Store(path, readonly=True) as store:      # refused without writing a byte
             row = store.campaign()
             if row is None:

@@ -35,8 +35,10 @@ read, table by table.
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import datetime as _dt
 import json
+import lzma
 import math
 import os
 import sqlite3
@@ -47,6 +49,7 @@ from typing import Any
 
 import numpy as np
 
+from optimizer.campaign.packed import PACKED_SUFFIX, packed_path, unpacked_copy
 from optimizer.campaign.status import EvaluationStatus
 from optimizer.config import ConfigError
 from solver.convergence import ConvergenceClass
@@ -355,13 +358,42 @@ class StoreInspection:
                            for t in self.tables}}
 
 
+def locate(path: str | Path) -> tuple[Path, Path]:
+    """(the store's name for messages, the file to read it from) for the store at ``path``: ``path``
+    itself, or where only its packed form (:mod:`optimizer.campaign.packed`) is there, that file and an
+    unpacked copy of it (``path`` may also name the packed file). A packed file that does not unpack raises :class:`StoreDamaged`."""
+    path = Path(path)
+    packed = path if path.name.endswith(PACKED_SUFFIX) else packed_path(path)
+    if packed != path and (path.exists() or not packed.exists()):
+        return path, path
+    if not packed.exists():
+        return path, path
+    try:
+        return packed, unpacked_copy(packed)
+    except (lzma.LZMAError, EOFError) as exc:
+        raise StoreDamaged(StoreInspection(packed, packed.stat().st_size,
+                                           f"the packed store cannot be unpacked ({_short(exc)})")) from None
+
+
+def stored(path: str | Path) -> bool:
+    """Whether there is a store at ``path``, as it is or packed."""
+    return Path(path).exists() or packed_path(path).exists()
+
+
 def inspect_store(path: str | Path, cause: str | None = None) -> StoreInspection:
     """Read a store file as far as it goes, table by table, and say what is damaged (never raises).
 
     Every row of every table is read and its JSON values and the campaign's configuration YAML are parsed;
     SQLite's own errors stop a table's reading where they occur. ``cause``: an error already met (what
-    the inspection reports if it finds nothing else).
+    the inspection reports if it finds nothing else). A packed store is inspected through its unpacked
+    copy and named as the packed file.
     """
+    try:
+        shown, source = locate(path)
+    except StoreDamaged as exc:
+        return exc.inspection
+    if source != shown:
+        return dataclasses.replace(inspect_store(source, cause), path=shown)
     path = Path(path)
     try:
         size = path.stat().st_size
@@ -557,15 +589,19 @@ class Store:
     def __init__(self, path: str | Path, *, readonly: bool = False, sync: str = "full"):
         self.path = Path(path)
         if readonly:
-            if not self.path.exists():
+            self.path, source = locate(self.path)
+            if not source.exists():
                 raise FileNotFoundError(f"no campaign store at {self.path}")
-            self._db = sqlite3.connect(_readonly_uri(self.path), uri=True, timeout=30.0)
+            self._db = sqlite3.connect(_readonly_uri(source), uri=True, timeout=30.0)
             try:
                 _check(self._db, self.path)
             except BaseException:
                 self._db.close()
                 raise
         else:
+            if not self.path.exists() and packed_path(self.path).exists():
+                raise FileExistsError(f"{packed_path(self.path)} is a packed store: `millfoil unpack "
+                                      f"{self.path.parent}` before writing to it")
             if self.path.exists():
                 with contextlib.closing(sqlite3.connect(_readonly_uri(self.path), uri=True, timeout=30.0)) as db:
                     _check(db, self.path)

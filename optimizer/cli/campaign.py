@@ -1,4 +1,4 @@
-"""``millfoil run | resume | status | check``: optimisation campaigns (:mod:`optimizer.campaign`).
+"""``millfoil run | resume | status | pack | unpack | check``: optimisation campaigns (:mod:`optimizer.campaign`).
 
 Exit status of ``run`` and ``resume``: 0 the campaign finished, 2 bad input (configuration, an existing
 run directory, no store to resume), 4 the campaign failed (an error outside any single evaluation; the
@@ -68,6 +68,19 @@ def register(sub: argparse._SubParsersAction) -> None:
     status.add_argument("directory", type=Path, metavar="RUN", help="run directory (holds campaign.sqlite)")
     status.add_argument("--json", action="store_true", help="print the summary as JSON")
     status.set_defaults(run=run_status)
+
+    for name, verb, help_, description in (
+            ("pack", run_pack, "compress a campaign's store for an archive or a repository (campaign.sqlite.xz)",
+             "Write RUN/campaign.sqlite (its write-ahead log folded in) to RUN/campaign.sqlite.xz, LZMA-compressed "
+             "(about a fifth of the size), check that it reads back equal, and remove campaign.sqlite. `status`, "
+             "`report` and `export` read a packed store as it is; `resume` unpacks it first. Refused while a "
+             "driver runs in RUN."),
+            ("unpack", run_unpack, "restore a packed store (campaign.sqlite.xz) to campaign.sqlite",
+             "Write RUN/campaign.sqlite from RUN/campaign.sqlite.xz and remove the packed file (`resume` does "
+             "this by itself). Refused while a driver runs in RUN.")):
+        command = sub.add_parser(name, help=help_, description=description)
+        command.add_argument("directory", type=Path, metavar="RUN", help="run directory")
+        command.set_defaults(run=verb)
 
     check = sub.add_parser(
         "check",
@@ -194,6 +207,38 @@ def run_status(args: argparse.Namespace) -> int:
         raise
     print(json.dumps(summary, indent=2) if args.json else format_status(summary))
     return EXIT_OK
+
+
+def run_pack(args: argparse.Namespace) -> int:
+    from optimizer.campaign.packed import pack
+
+    done = _packing(pack, args.directory)
+    print(f"packed {args.directory / 'campaign.sqlite'} ({done.before:,} bytes) into {done.written} "
+          f"({done.after:,} bytes)")
+    return EXIT_OK
+
+
+def run_unpack(args: argparse.Namespace) -> int:
+    from optimizer.campaign.packed import unpack
+
+    done = _packing(unpack, args.directory)
+    print(f"unpacked {args.directory / 'campaign.sqlite.xz'} ({done.before:,} bytes) into {done.written} "
+          f"({done.after:,} bytes)")
+    return EXIT_OK
+
+
+def _packing(step, directory: Path):
+    """``step`` (pack or unpack) on the run directory's store; a refusal is a bad input (exit 2)."""
+    from optimizer.campaign.lock import DirectoryInUse
+    from optimizer.campaign.packed import PackError
+    from optimizer.campaign.store import STORE_NAME
+
+    if not directory.is_dir():
+        raise ConfigError(f"{directory}: no such run directory")
+    try:
+        return step(directory / STORE_NAME)
+    except (PackError, DirectoryInUse) as exc:
+        raise ConfigError(str(exc)) from None
 
 
 # ------------------------------------------------------------------------------------------- helpers

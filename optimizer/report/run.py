@@ -27,6 +27,8 @@ from optimizer.campaign.store import (
     Store,
     StoreDamaged,
     inspect_store,
+    locate,
+    stored,
 )
 
 
@@ -116,7 +118,7 @@ def load_run(directory: str | Path) -> Run:
     opened, :class:`StoreDamaged` if it is damaged."""
     directory = Path(directory)
     path = directory / STORE_NAME
-    if not path.exists():
+    if not stored(path):
         raise RunError(f"{directory}: no campaign store ({STORE_NAME}); give a run directory of `millfoil run`")
     try:
         with Store(path, readonly=True) as store:
@@ -141,7 +143,7 @@ def load_run(directory: str | Path) -> Run:
 
 def _design_numbers(path: Path) -> dict[str, int]:
     """``{key: rowid}`` of the ``evaluations`` table (the store's API does not expose the rowid)."""
-    db = sqlite3.connect(f"file:{path}?mode=ro", uri=True, timeout=30.0)
+    db = sqlite3.connect(f"file:{locate(path)[1]}?mode=ro", uri=True, timeout=30.0)
     try:
         return {key: rowid for rowid, key in db.execute("SELECT rowid, key FROM evaluations")}
     finally:
