@@ -12,6 +12,7 @@ hours between sessions do not count — and the command that draws the report of
     python bench/paper_study.py --level coarse                 # the eight cases, hours on 2 cores
     python bench/paper_study.py --level medium --cases toolpath_g1
     python bench/paper_study.py --level coarse --report-only
+    python bench/paper_study.py --level coarse --report-only --out /scratch/paper --archive runs/examples/paper
 """
 
 from __future__ import annotations
@@ -63,7 +64,8 @@ def cost(directory: Path) -> dict | None:
         state = s.campaign().state
         rows = [r for r in s.evaluations() if r.status != EvaluationStatus.INFEASIBLE]
         generations = s.generations()
-    cpu = sum(sum((r.seconds or {}).values()) or (r.wall_seconds or 0.0) for r in rows) / 3600
+    # the workers' CPU time (the report's rule: its wall time where a row has none)
+    cpu = sum((r.seconds or {}).get("cpu") or r.wall_seconds or 0.0 for r in rows) / 3600
     wall = 0.0
     for g in generations:
         started = [r.submitted for r in rows if r.generation == g.generation and r.submitted]
@@ -75,6 +77,48 @@ def cost(directory: Path) -> dict | None:
 
 def _time(text: str) -> datetime:
     return datetime.fromisoformat(text)
+
+
+def archive(out: Path, level: str, cases, dest: Path) -> None:
+    """Copy the runs of ``out/level`` to ``dest/level`` as the repository keeps them: each store packed
+    (a consistent snapshot, also of a running campaign; its message names the copy, not the original), its
+    ``config.yaml``, and only the fields files the report of all of them draws
+    (:func:`optimizer.report.html.fields_shown`), so that ``millfoil report`` of the copies draws the same
+    page. A run already there is replaced."""
+    import shutil
+    import sqlite3
+
+    from optimizer.campaign.fields import fields_path
+    from optimizer.campaign.packed import pack
+    from optimizer.campaign.store import STORE_NAME, stored
+    from optimizer.report.html import fields_shown
+    from optimizer.report.run import load_run
+
+    runs = [load_run(out / level / case) for case in cases if stored(out / level / case / STORE_NAME)]
+    shown = fields_shown(runs)
+    for run in runs:
+        target = dest / level / run.directory.name
+        shutil.rmtree(target, ignore_errors=True)
+        target.mkdir(parents=True)
+        shutil.copy2(run.directory / "config.yaml", target / "config.yaml")
+        source = sqlite3.connect(f"file:{run.directory / STORE_NAME}?mode=ro", uri=True)
+        copy = sqlite3.connect(target / STORE_NAME)
+        try:
+            source.backup(copy)
+            with copy:
+                copy.execute("UPDATE campaign SET message = replace(message, ?, ?)", (str(run.directory), str(target)))
+        finally:
+            source.close()
+            copy.close()
+        pack(target / STORE_NAME)
+        (target / "driver.lock").unlink(missing_ok=True)
+        for key in sorted(shown.get(run.directory, ())):
+            kept = fields_path(run.directory, key)
+            if kept.is_file():
+                fields_path(target, key).parent.mkdir(exist_ok=True)
+                shutil.copy2(kept, fields_path(target, key))
+        size = sum(f.stat().st_size for f in target.rglob("*") if f.is_file())
+        print(f"{target}: {size / 1e6:.2f} MB ({len(shown.get(run.directory, ()))} fields files)", file=sys.stderr)
 
 
 def summary(out: Path, level: str, cases) -> None:
@@ -99,11 +143,16 @@ def main() -> int:
     parser.add_argument("--workers", type=int, help="execution.workers of every run (default: one per core)")
     parser.add_argument("--out", type=Path, default=ROOT / "runs" / "examples" / "paper")
     parser.add_argument("--report-only", action="store_true", help="summarise the stores already there")
+    parser.add_argument("--archive", type=Path, metavar="DEST",
+                        help="then copy the runs to DEST/LEVEL as the repository keeps them (packed stores, the "
+                        "fields the report draws): e.g. runs/examples/paper")
     args = parser.parse_args()
     if not args.report_only:
         for case in args.cases:
             run_case(case, args.level, args.out / args.level / case, args.workers)
     summary(args.out, args.level, args.cases)
+    if args.archive:
+        archive(args.out.resolve(), args.level, args.cases, args.archive.resolve())
     return 0
 
 

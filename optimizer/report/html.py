@@ -114,6 +114,21 @@ def write_report(runs: list[Run], out: Path, option: str = "--out") -> Path:
     return out / "index.html"
 
 
+def fields_shown(runs: list[Run]) -> dict[Path, set[str]]:
+    """``{run directory: keys}`` of the designs whose fields files (``RUN/fields/<key>.npz``) the report of
+    ``runs`` draws: the Flow fields section's and, for a paper study, the G1 pairs'. A copy of the runs that
+    keeps only these files draws the same page (``bench/paper_study.py --archive``)."""
+    pts = [points(r) for r in runs]
+    shown = {r.directory: {p.design.key for p, _ in fields_designs(r, p)[0]} for r, p in zip(runs, pts, strict=True)}
+    if is_study(runs):
+        for g in (g for lv in study_levels(runs, pts) if (g := g1_pairs(lv)) is not None):
+            for pair in g.pairs:
+                for run, p in ((g.design, pair.design), (g.toolpath, pair.toolpath)):
+                    if p is not None and kept_fields(run, p) is not None:
+                        shown[run.directory].add(p.design.key)
+    return shown
+
+
 def _img(src: str, alt: str) -> str:
     return f'<p><img src="{e(src)}" alt="{e(alt)}"></p>'
 

@@ -286,3 +286,34 @@ def test_a_failing_study_figure_leaves_the_previous_report(study_runs, tmp_path,
         html.write_report(runs, out)
     assert sorted(p.name for p in out.iterdir()) == ["index.html"]
     assert (out / "index.html").read_text() == "previous report"
+
+
+def test_the_fields_the_report_draws_are_enough_to_draw_it_again(study_runs, tmp_path):
+    """A copy of the runs that keeps only `fields_shown`'s files (as the repository keeps its examples) has
+    the same designs drawn in the Flow fields section, and every G1 pair keeps the files it had."""
+    import shutil
+
+    from optimizer.campaign.fields import fields_path
+    from optimizer.report.analysis import fields_designs, points
+    from optimizer.report.html import fields_shown
+    from optimizer.report.study import g1_pairs, kept_fields, study_levels
+
+    _, runs = study_runs
+    shown = fields_shown(runs)
+    copies = []
+    for k, run in enumerate(runs):
+        copy = tmp_path / f"run{k}"
+        for key in shown[run.directory]:
+            assert fields_path(run.directory, key).is_file()
+            fields_path(copy, key).parent.mkdir(parents=True, exist_ok=True)
+            shutil.copy2(fields_path(run.directory, key), fields_path(copy, key))
+        copies.append(dataclasses.replace(run, directory=copy))
+    pts = [points(r) for r in runs]
+    for run, copy, p in zip(runs, copies, pts, strict=True):
+        assert [q.design.key for q, _ in fields_designs(copy, p)[0]] == [q.design.key for q, _ in fields_designs(run, p)[0]]
+    pairs = [g for lv in study_levels(runs, pts) if (g := g1_pairs(lv)) is not None]
+    copied = [g for lv in study_levels(copies, pts) if (g := g1_pairs(lv)) is not None]
+    assert pairs and len(pairs) == len(copied)
+    for g, c in zip(pairs, copied, strict=True):
+        for a, b in zip(g.pairs, c.pairs, strict=True):
+            assert (kept_fields(g.design, a.design) is None) == (kept_fields(c.design, b.design) is None)
