@@ -32,6 +32,7 @@ processes for parallel meshing). If gmsh is already initialised by the caller it
 from __future__ import annotations
 
 import math
+import re
 import time
 from collections.abc import Callable
 
@@ -479,11 +480,26 @@ def even_out_ring(layers: np.ndarray, fraction: np.ndarray, sigma: float | None 
 # ------------------------------------------------------------------------------------ O-layer
 
 
+def _check_simple(wall: np.ndarray, spec: MeshSpec) -> None:
+    """MeshingError if the resampled wall polygon crosses itself. A valid profile thinner than the wall
+    spacing (a trailing edge of a few tenths of a millimetre on the coarse level) can resample into a
+    crossing polygon, and gmsh's frontal mesher never returns on a crossing boundary."""
+    polygon = shapely.Polygon(wall)
+    if polygon.is_valid:
+        return
+    reason = shapely.is_valid_reason(polygon)
+    at = re.search(r"\[(\S+) (\S+)\]", reason)
+    where = f"at x = {float(at[1]):.4g} m, y = {float(at[2]):.4g} m" if at else f"({reason})"
+    raise MeshingError(f"the blade wall resampled for this mesh level ({len(wall)} nodes) crosses itself {where}: "
+                       "the profile is thinner there than the wall spacing; a finer level may mesh it")
+
+
 def o_layer(profile, spec: MeshSpec, gmsh) -> dict:
     """The structured O-layer: points, quads, fan triangles, wall node count, ring node indices."""
     chord = profile.chord
     h0 = spec.first_cell_height(chord)
     wall, is_corner = resample_wall(profile, spec)
+    _check_simple(wall, spec)
     seg = np.linalg.norm(np.roll(wall, -1, axis=0) - wall, axis=1)
     wall_h = 0.5 * (seg + np.roll(seg, 1))
     hull = offset_hull(profile, spec)

@@ -293,3 +293,43 @@ def test_small_leading_edge_radius_keeps_the_trailing_edge_resolved():
     assert on_te.sum() >= 2                                  # 3 faces or more across the trailing edge
     assert len(nodes) > COARSE.wall_nodes                    # the curvature takes more than the budget
     assert h.max() <= 1.01 * MAX_SPACING_RATIO * perimeter / COARSE.wall_nodes
+
+
+#: A feasible G1 design (found by a coarse campaign) whose trailing edge is thinner than the coarse wall
+#: spacing: its resampled wall crosses itself near x = 0.070 m, and gmsh's frontal mesher never returned on it.
+THIN_TRAILING_EDGE = {"L": 0.1, "alpha": 4.324181313802892, "beta1": -19.377530187285583,
+                      "beta1bar": 49.745075061897836, "u_s2": 0.15928271548094095, "d_s1": 0.005605507739512727,
+                      "d_s2": 0.010579452559881328, "d_s3": 0.034839169382184176, "d_s4": 0.002,
+                      "u_p2": 0.34889523921464277, "d_p1": 0.005016744475424478, "d_p2": 0.0050148036625023255,
+                      "d_p3": 0.04989654543045035, "d_p4": 0.002}
+
+SUBPROCESS_MESH = """
+import sys
+from geometry import BladeSpec, build_profile
+from meshing import MeshingError, MeshSpec, build_mesh
+from tests.meshing.test_meshing import THIN_TRAILING_EDGE
+profile = build_profile(BladeSpec.from_values("design", "G1", THIN_TRAILING_EDGE))
+try:
+    build_mesh(profile, MeshSpec.for_level(sys.argv[1]))
+    print("meshed")
+except MeshingError as exc:
+    print("MeshingError:", exc)
+"""
+
+
+@pytest.mark.parametrize("level,outcome", [("coarse", "MeshingError: the blade wall resampled for this mesh level"),
+                                           pytest.param("medium", "meshed", marks=pytest.mark.slow)])
+def test_a_wall_that_resamples_into_a_crossing_polygon_fails_at_once(level, outcome):
+    """Refused with the place where it crosses, in about a second, instead of hanging the worker until the
+    campaign's timeout; the finer level, whose spacing resolves the thin edge, meshes it."""
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[2]
+    done = subprocess.run([sys.executable, "-c", SUBPROCESS_MESH, level], capture_output=True, text=True, timeout=120,
+                          cwd=root, env={**os.environ, "PYTHONPATH": str(root)})
+    assert done.stdout.startswith(outcome), done
+    if level == "coarse":
+        assert "crosses itself at x = 0.07014 m, y = -0.01016 m" in done.stdout
