@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import lzma
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -122,3 +123,16 @@ def test_a_damaged_packed_store_is_reported_as_damaged(run, capsys):
     assert main(["unpack", str(run)]) == 2
     assert "cannot be unpacked" in capsys.readouterr().err
     assert not (run / STORE_NAME).exists() and not (run / f".{STORE_NAME}.partial").exists()
+
+
+@pytest.mark.parametrize("packed", sorted(str(p.relative_to(ROOT)) for p in (ROOT / "runs" / "examples").rglob(
+    f"{STORE_NAME}.xz")) or [pytest.param(None, marks=pytest.mark.skip(reason="no example stores"))])
+def test_the_example_stores_read_on_a_fresh_clone(packed):
+    """Every store kept under runs/examples is packed, whole, and names no directory outside the repository."""
+    directory = (ROOT / packed).parent
+    summary = status_of(directory)
+    assert summary["evaluations"] > 0
+    assert not (directory / STORE_NAME).exists()
+    with Store(directory / STORE_NAME, readonly=True) as store:
+        message = store.campaign().message or ""
+    assert not re.search(r"(^|[\s`'\"(])/", message), message          # no absolute path
