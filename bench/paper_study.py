@@ -106,7 +106,8 @@ def archive(out: Path, level: str, cases, dest: Path) -> None:
         try:
             source.backup(copy)
             with copy:
-                copy.execute("UPDATE campaign SET message = replace(message, ?, ?)", (str(run.directory), str(target)))
+                copy.execute("UPDATE campaign SET message = replace(message, ?, ?)", (str(run.directory), str(
+                    target.relative_to(ROOT) if target.is_relative_to(ROOT) else target)))
         finally:
             source.close()
             copy.close()
