@@ -94,6 +94,8 @@ def report(out: Path, cases) -> None:
             share = "" if reference in (None, 0.0) or c.run.name.startswith("nsga2") else \
                 f"{c.hypervolume[i] / reference:.1%}"
             verdict = "" if not share else ("yes" if c.hypervolume[i] >= 0.99 * reference else "no")
+            if verdict and len(plain[0].hypervolume) < PLAIN_BUDGET:    # no verdict before plain's budget is spent
+                verdict = f"not yet: plain has {len(plain[0].hypervolume)} of {PLAIN_BUDGET}"
             print(f"| {case} | {c.run.name} ({c.run.campaign.state}) | {len(c.evaluations)} | {c.cpu_hours[-1]:.2f} "
                   f"| {c.hypervolume[i]:.4f} (at {i + 1}) | {share} | {verdict} |")
 
