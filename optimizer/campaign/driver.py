@@ -180,16 +180,16 @@ def resume_campaign(directory: str | Path, *, runner=None, fn: Callable[[dict], 
     if not stored(path):
         raise CampaignError(f"no campaign store in {directory} (expected {path})")
     with DriverLock(directory, "resume", log):
+        with Store(path, readonly=True) as store:      # refused without writing a byte (a packed store too)
+            row = store.campaign()
+            if row is None:
+                raise CampaignError(f"{store.path} holds no campaign (it never started)")
+            config = saved_config(row.config, execution, overrides)
+            _check_readable(store, store.path, config)
         if not path.exists():          # packed: a campaign continues in its store
             packing = unpack(path, locked=True)
             (log or (lambda _line: None))(f"unpacked {packed_path(path).name} ({packing.before:,} bytes) into "
                                           f"{path.name} ({packing.after:,} bytes)")
-        with Store(path, readonly=True) as store:      # refused without writing a byte
-            row = store.campaign()
-            if row is None:
-                raise CampaignError(f"{path} holds no campaign (it never started)")
-            config = saved_config(row.config, execution, overrides)
-            _check_readable(store, path, config)
         with Store(path) as store:
             return _resume(config, row, store, directory, runner, fn, progress, log)
 

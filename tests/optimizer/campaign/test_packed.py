@@ -136,3 +136,11 @@ def test_the_example_stores_read_on_a_fresh_clone(packed):
     with Store(directory / STORE_NAME, readonly=True) as store:
         message = store.campaign().message or ""
     assert not re.search(r"(^|[\s`'\"(])/", message), message          # no absolute path
+
+
+def test_a_refused_resume_leaves_a_packed_store_packed(run, capsys):
+    pack(run / STORE_NAME)
+    before = packed_path(run / STORE_NAME).read_bytes()
+    assert main(["resume", str(run), "--set", "execution.workers=0", "--quiet"]) == 2
+    assert "execution.workers" in capsys.readouterr().err
+    assert packed_path(run / STORE_NAME).read_bytes() == before and not (run / STORE_NAME).exists()
