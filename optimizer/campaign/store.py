@@ -361,7 +361,8 @@ class StoreInspection:
 def locate(path: str | Path) -> tuple[Path, Path]:
     """(the store's name for messages, the file to read it from) for the store at ``path``: ``path``
     itself, or where only its packed form (:mod:`optimizer.campaign.packed`) is there, that file and an
-    unpacked copy of it (``path`` may also name the packed file). A packed file that does not unpack raises :class:`StoreDamaged`."""
+    unpacked copy of it (``path`` may also name the packed file). A packed file that does not unpack raises
+    :class:`StoreDamaged`."""
     path = Path(path)
     packed = path if path.name.endswith(PACKED_SUFFIX) else packed_path(path)
     if packed != path and (path.exists() or not packed.exists()):

@@ -99,9 +99,9 @@ def test_pack_and_unpack_refuse_what_they_cannot_do(run, capsys):
 
 def test_nothing_is_packed_under_a_live_driver(run):
     holder = subprocess.Popen([sys.executable, "-c", "import sys, time\nfrom optimizer.campaign.lock import "
-                               "DriverLock\nlock = DriverLock(sys.argv[1], 'run').acquire()\nprint('held', flush=True)\n"
-                               "time.sleep(600)", str(run)], stdout=subprocess.PIPE, text=True,
-                              env={**os.environ, "PYTHONPATH": str(ROOT)})
+                               "DriverLock\nlock = DriverLock(sys.argv[1], 'run').acquire()\n"
+                               "print('held', flush=True)\ntime.sleep(600)", str(run)], stdout=subprocess.PIPE,
+                              text=True, env={**os.environ, "PYTHONPATH": str(ROOT)})
     try:
         assert holder.stdout.readline().strip() == "held"
         with pytest.raises(DirectoryInUse, match=f"millfoil run, pid {holder.pid}"):

@@ -310,7 +310,8 @@ def test_the_fields_the_report_draws_are_enough_to_draw_it_again(study_runs, tmp
         copies.append(dataclasses.replace(run, directory=copy))
     pts = [points(r) for r in runs]
     for run, copy, p in zip(runs, copies, pts, strict=True):
-        assert [q.design.key for q, _ in fields_designs(copy, p)[0]] == [q.design.key for q, _ in fields_designs(run, p)[0]]
+        drawn = [[q.design.key for q, _ in fields_designs(r, p)[0]] for r in (run, copy)]
+        assert drawn[0] == drawn[1]
     pairs = [g for lv in study_levels(runs, pts) if (g := g1_pairs(lv)) is not None]
     copied = [g for lv in study_levels(copies, pts) if (g := g1_pairs(lv)) is not None]
     assert pairs and len(pairs) == len(copied)
