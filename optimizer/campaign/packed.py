@@ -84,13 +84,12 @@ def pack(store: str | Path) -> Packing:
         if not store.exists():
             what = f"it is packed already ({target.name})" if target.exists() else "there is no campaign store"
             raise PackError(f"{store.parent}: nothing to pack: {what}")
-        with sqlite3.connect(store, timeout=30.0) as db:       # fold the WAL in; readers keep working
+        with contextlib.closing(sqlite3.connect(store, timeout=30.0)) as db:   # fold the WAL in; readers go on
             db.execute("PRAGMA wal_checkpoint(TRUNCATE)")
-        db.close()
         partial = target.with_name(f".{target.name}.partial")
         with open(store, "rb") as source, lzma.open(partial, "wb", preset=9 | lzma.PRESET_EXTREME) as packed:
             shutil.copyfileobj(source, packed, 1 << 20)
-        _same_or_fail(partial, store, lambda f: lzma.open(f, "rb"))
+        _same_or_fail(partial, store)
         os.replace(partial, target)
         before = store.stat().st_size
         for name in (store.name, f"{store.name}-wal", f"{store.name}-shm"):
@@ -122,10 +121,10 @@ def unpack(store: str | Path, *, locked: bool = False) -> Packing:
         return Packing(store, before, store.stat().st_size)
 
 
-def _same_or_fail(packed: Path, original: Path, opener) -> None:
+def _same_or_fail(packed: Path, original: Path) -> None:
     """Read ``packed`` back and compare it with ``original`` byte for byte (PackError and the partial file
     removed if they differ: a disk that lost a write)."""
-    with opener(packed) as a, open(original, "rb") as b:
+    with lzma.open(packed, "rb") as a, open(original, "rb") as b:
         while True:
             x, y = a.read(1 << 20), b.read(1 << 20)
             if x != y:
