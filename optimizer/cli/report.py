@@ -24,9 +24,12 @@ def register(sub: argparse._SubParsersAction) -> None:
         "Table 7 summary (with the paper's values for its cases), blades along the front, campaign health per "
         "generation, provenance. Exit status: 0 written, 2 bad input, 4 not written.",
         epilog="Examples:\n  millfoil report runs/quickstart\n"
-        "  millfoil report runs/design_g1 runs/toolpath_g1 --out reports/g1 --open\nSee docs/explanation/reports.md.",
+        "  millfoil report runs/design_g1 runs/toolpath_g1 --out reports/g1 --open\n"
+        "  millfoil report runs/examples/paper --out reports/paper\nSee docs/explanation/reports.md.",
     )
-    p.add_argument("directories", nargs="+", type=Path, metavar="RUN", help="run directories")
+    p.add_argument("directories", nargs="+", type=Path, metavar="RUN",
+                   help="run directories; a directory without a store stands for the runs in its subdirectories "
+                   "(two levels at most: runs/examples/paper holds coarse/design_g1, …)")
     p.add_argument("--out", type=Path, metavar="DIR", help="output directory (default: FIRST-RUN/report)")
     p.add_argument("--open", action="store_true", help="open the page in a web browser when written")
     p.set_defaults(run=run_report)
@@ -34,10 +37,10 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 def run_report(args: argparse.Namespace) -> int:
     from optimizer.report.html import write_report
-    from optimizer.report.run import RunError, load_run
+    from optimizer.report.run import RunError, load_run, run_directories
 
     try:
-        runs = [load_run(d) for d in args.directories]
+        runs = [load_run(d) for d in run_directories(args.directories)]
     except RunError as exc:
         print(f"millfoil: error: {exc}", file=sys.stderr)
         return EXIT_INPUT

@@ -113,6 +113,25 @@ class Run:
         return found[0]
 
 
+def run_directories(paths: list[Path]) -> list[Path]:
+    """The run directories that ``paths`` name: a path holding a campaign store is a run; a path without one
+    stands for every subdirectory of it that holds one (a study such as ``runs/examples/paper``, its levels
+    one further down), in name order. Raises :class:`RunError` for a path that holds neither."""
+    found: list[Path] = []
+    for path in paths:
+        if stored(path / STORE_NAME):
+            found.append(path)
+            continue
+        inner = sorted(d for d in path.glob("*") if d.is_dir() and stored(d / STORE_NAME)) if path.is_dir() else []
+        if not inner and path.is_dir():
+            inner = sorted(d for d in path.glob("*/*") if d.is_dir() and stored(d / STORE_NAME))
+        if not inner:
+            raise RunError(f"{path}: no campaign store ({STORE_NAME}) here or in its subdirectories; give a run "
+                           "directory of `millfoil run`")
+        found += inner
+    return found
+
+
 def load_run(directory: str | Path) -> Run:
     """Read a run directory's store (read-only). Raises :class:`RunError` if there is none or it cannot be
     opened, :class:`StoreDamaged` if it is damaged."""

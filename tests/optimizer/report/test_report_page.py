@@ -142,6 +142,20 @@ def test_report_input_errors(tmp_path, capsys):
     assert "no campaign store" in capsys.readouterr().err
 
 
+def test_a_directory_without_a_store_stands_for_the_runs_below_it(runs, tmp_path):
+    from optimizer.report.run import RunError, run_directories
+
+    base = runs[0].parent
+    assert run_directories([base]) == sorted(runs)
+    study = tmp_path / "study"
+    (study / "coarse").mkdir(parents=True)
+    shutil.copytree(runs[0], study / "coarse" / runs[0].name)
+    assert run_directories([study]) == [study / "coarse" / runs[0].name]     # levels one further down
+    assert run_directories([runs[1], base]) == [runs[1], *sorted(runs)]
+    with pytest.raises(RunError, match="here or in its subdirectories"):
+        run_directories([study / "coarse" / "nothing"])
+
+
 # ------------------------------------------------------------------------------------------- browser
 def _chromium() -> str | None:
     for name in ("chromium", "chromium-browser", "google-chrome", "google-chrome-stable"):
