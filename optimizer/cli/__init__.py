@@ -16,11 +16,12 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import os
 import signal
 import sys
 from collections.abc import Sequence
 
-from optimizer.cli.exits import EXIT_FAILED, EXIT_INFEASIBLE, EXIT_INPUT, EXIT_INTERRUPTED, EXIT_OK
+from optimizer.cli.exits import EXIT_FAILED, EXIT_INFEASIBLE, EXIT_INPUT, EXIT_INTERRUPTED, EXIT_OK, EXIT_PIPE
 
 __all__ = ["COMMAND_MODULES", "build_parser", "commands", "EXIT_FAILED", "EXIT_INFEASIBLE", "EXIT_INPUT",
            "EXIT_INTERRUPTED", "EXIT_OK", "main"]
@@ -41,6 +42,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     line, never a traceback or death by the signal; a campaign marks its store ``interrupted`` on the way
     out. While the command modules are imported (the first second) a signal is only noted, and acted on
     once they are: an interrupt inside a compiled module's initialisation would surface as an ImportError.
+
+    Output to a reader that has gone (``millfoil status RUN | head``) ends the command quietly with 141.
     """
     pending: list[int] = []
     previous = _handle_signals(lambda signum, frame: pending.append(signum))
@@ -56,9 +59,21 @@ def main(argv: Sequence[str] | None = None) -> int:
         # signal arriving late) must not turn exit status 130 into death by the signal
         _handle_signals(lambda signum, frame: None)
         return EXIT_INTERRUPTED
+    except BrokenPipeError:
+        # the reader of the output has gone (`| head`): stop quietly, as a Unix tool stopped by SIGPIPE does,
+        # and keep Python's final flush of stdout from printing a second error
+        _discard_stdout()
+        return EXIT_PIPE
     for signum, handler in previous.items():
         signal.signal(signum, handler)
     return code
+
+
+def _discard_stdout() -> None:
+    try:
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+    except (AttributeError, OSError, ValueError):   # a stdout without a descriptor (an embedding application)
+        pass
 
 
 def _raise_interrupt(signum, frame):

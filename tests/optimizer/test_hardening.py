@@ -329,3 +329,18 @@ def test_the_shipped_configurations_pass_the_new_checks():
     for path in configs.rglob("*.yaml"):
         data, _ = parse_yaml(path.read_text(), str(path))     # no duplicates, within every limit
         assert isinstance(data, dict) and yaml.safe_load(path.read_text()) == data
+
+
+@pytest.mark.slow
+def test_output_to_a_reader_that_has_gone_ends_quietly():
+    """``millfoil status RUN | head``: the reader closes the pipe before the command writes; 141, nothing
+    on stderr (no traceback, no second error from the final flush)."""
+    import subprocess
+
+    root = Path(__file__).parents[2]
+    run = root / "runs" / "examples" / "paper" / "coarse" / "design_g1"
+    proc = subprocess.Popen([sys.executable, "-m", "optimizer.cli", "status", str(run)], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, env={**os.environ, "PYTHONPATH": str(root)})
+    proc.stdout.close()
+    err = proc.stderr.read().decode()
+    assert proc.wait(timeout=60) == 141 and err == "", err
