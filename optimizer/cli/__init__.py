@@ -24,7 +24,7 @@ from collections.abc import Sequence
 from optimizer.cli.exits import EXIT_FAILED, EXIT_INFEASIBLE, EXIT_INPUT, EXIT_INTERRUPTED, EXIT_OK, EXIT_PIPE
 
 __all__ = ["COMMAND_MODULES", "build_parser", "commands", "EXIT_FAILED", "EXIT_INFEASIBLE", "EXIT_INPUT",
-           "EXIT_INTERRUPTED", "EXIT_OK", "main"]
+           "EXIT_INTERRUPTED", "EXIT_OK", "EXIT_PIPE", "main"]
 
 #: Command modules under :mod:`optimizer.cli`, in the order of ``millfoil --help``.
 COMMAND_MODULES = ("blade", "mesh", "evaluate", "validate", "campaign", "report", "export")

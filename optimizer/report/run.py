@@ -122,14 +122,16 @@ def run_directories(paths: list[Path]) -> list[Path]:
         if stored(path / STORE_NAME):
             found.append(path)
             continue
-        inner = sorted(d for d in path.glob("*") if d.is_dir() and stored(d / STORE_NAME)) if path.is_dir() else []
-        if not inner and path.is_dir():
-            inner = sorted(d for d in path.glob("*/*") if d.is_dir() and stored(d / STORE_NAME))
+        inner = (_runs_in(path, "*") or _runs_in(path, "*/*")) if path.is_dir() else []
         if not inner:
             raise RunError(f"{path}: no campaign store ({STORE_NAME}) here or in its subdirectories; give a run "
                            "directory of `millfoil run`")
         found += inner
     return found
+
+
+def _runs_in(path: Path, pattern: str) -> list[Path]:
+    return sorted(d for d in path.glob(pattern) if d.is_dir() and stored(d / STORE_NAME))
 
 
 def load_run(directory: str | Path) -> Run:
