@@ -90,7 +90,7 @@ def archive(out: Path, level: str, cases, dest: Path) -> None:
 
     from optimizer.campaign.fields import fields_path
     from optimizer.campaign.packed import pack
-    from optimizer.campaign.store import STORE_NAME, stored
+    from optimizer.campaign.store import STORE_NAME, locate, stored
     from optimizer.report.html import fields_shown
     from optimizer.report.run import load_run
 
@@ -101,7 +101,8 @@ def archive(out: Path, level: str, cases, dest: Path) -> None:
         shutil.rmtree(target, ignore_errors=True)
         target.mkdir(parents=True)
         shutil.copy2(run.directory / "config.yaml", target / "config.yaml")
-        source = sqlite3.connect(f"file:{run.directory / STORE_NAME}?mode=ro", uri=True)
+        _, readable = locate(run.directory / STORE_NAME)      # a packed run is read from its unpacked copy
+        source = sqlite3.connect(f"file:{readable}?mode=ro", uri=True)
         copy = sqlite3.connect(target / STORE_NAME)
         try:
             source.backup(copy)
