@@ -1,5 +1,6 @@
 """Which designs the CFD sees in a surrogate-assisted generation: a pool searched on the models, a batch
-chosen from it by predicted hypervolume improvement.
+chosen from it by predicted hypervolume improvement, and a share that bisects towards constraint boundaries
+on computed values.
 
 The rule (the reasoning and its evidence: ``docs/decisions/0017-surrogate-infill.md``):
 
@@ -12,13 +13,21 @@ The rule (the reasoning and its evidence: ``docs/decisions/0017-surrogate-infill
    (:meth:`~CampaignProblem.check`: the machined profile, self-crossing, pieces; 20 ms in tool-path mode)
    runs on each design the choice below reaches, before it is taken: an infeasible design is never sent,
    and the pool costs a few dozen full checks instead of a thousand.
-2. **Exploitation** (``batch − exploration·batch`` designs): greedily, the candidate whose predicted
+2. **Boundary** (a quarter of the batch, :data:`BOUNDARY`; only in a run with CFD constraints, a feasible
+   front and evaluated designs that violate a constraint yet would improve the front): candidates are the
+   midpoints between each front design and the nearest such violating design (:func:`boundary_midpoints`),
+   chosen greedily by the hypervolume their predicted objectives add, **without the constraint models**.
+   Over generations this bisects onto the constraint boundary the front lies on, which a stationary model
+   of the constraint blurs: an evaluated midpoint is either a new front design or the new nearest
+   violating one.
+3. **Exploitation** (the batch less the other shares): greedily, the candidate whose predicted
    objectives add the most hypervolume to the run's front, the front then taking that prediction as
    if it were computed (the "believer" step of batch Bayesian optimisation), until the share is filled or
    nothing improves.
-3. **Exploration** (the rest): the same greedy step on the *optimistic* point ``mean − κ·std`` (κ = 2):
-   designs whose uncertainty could put them on the front, which is where the models learn most.
-4. Slots still empty (nothing is predicted to improve the front) follow NSGA-II's order on the
+4. **Exploration** (``exploration·batch``): the same greedy step on the *optimistic* point
+   ``mean − κ·std`` (κ = 2): designs whose uncertainty could put them on the front, which is where the
+   models learn most.
+5. Slots still empty (nothing is predicted to improve the front) follow NSGA-II's order on the
    predictions: the best constrained non-dominated rank first, within it the candidate farthest from every
    design chosen or evaluated, so a generation always sends a full batch and still moves towards the
    predicted front.
@@ -39,12 +48,14 @@ from optimizer.campaign.surrogate import Models, Prediction
 
 #: Optimism of the exploration share: the optimistic point is ``mean − KAPPA·std``.
 KAPPA = 2.0
+#: Share of the batch for the boundary step (midpoints between the front and designs beyond it).
+BOUNDARY = 0.25
 
 
 @dataclass
 class Proposal:
-    """A batch for the CFD. X: ``(batch, d)``; roles: ``exploit``/``explore``/``fill`` per design;
-    prediction: the models' output for ``X``; drawn: candidates the search drew; screened: of those, the
+    """A batch for the CFD. X: ``(batch, d)``; roles: ``boundary``/``exploit``/``explore``/``fill`` per
+    design; prediction: the models' output for ``X``; drawn: candidates the search drew; screened: of those, the
     distinct ones that meet the cheap necessary conditions (the pool); checked: pool designs given the
     full geometric check on the way to the batch; rejected: of those, the infeasible; seconds: ``{"screen"}``."""
 
@@ -102,13 +113,15 @@ def _improvement_2d(front: np.ndarray, points: np.ndarray, reference: np.ndarray
 # ------------------------------------------------------------------------------------------- choice
 def choose(prediction: Prediction, front: np.ndarray, reference: np.ndarray | None, batch: int, exploration: float,
            failure_limit: float, X: np.ndarray, evaluated: np.ndarray,
-           confirm: Callable[[int], bool] = lambda i: True) -> tuple[np.ndarray, list[str]]:
+           confirm: Callable[[int], bool] = lambda i: True,
+           boundary: np.ndarray | None = None) -> tuple[np.ndarray, list[str]]:
     """Indices into the pool (rows of ``X``, scaled to the unit box) and their roles (module docstring).
 
     front: ``(k, m)`` minimised objectives of the run's feasible non-dominated designs; reference: the
     run's hypervolume reference point (minimised; None: from the front and the predictions); evaluated:
     ``(e, d)`` scaled design vectors already evaluated (never chosen again); confirm: the full geometric
-    check of a pool row, run on each candidate the choice reaches before it is taken (False: skipped)."""
+    check of a pool row, run on each candidate the choice reaches before it is taken (False: skipped);
+    boundary: ``(n,)`` bool, the rows that are boundary candidates (only the boundary share takes them)."""
     n = len(X)
     if n == 0:
         return np.zeros(0, int), []
@@ -121,11 +134,15 @@ def choose(prediction: Prediction, front: np.ndarray, reference: np.ndarray | No
     feasible = safe & np.all(prediction.g_mean <= 0.0, axis=1)
     hopeful = safe & np.all(prediction.g_mean - KAPPA * prediction.g_std <= 0.0, axis=1)
     available = ~_near(X, evaluated)
+    boundary = np.zeros(n, bool) if boundary is None else boundary
     chosen: list[int] = []
     roles: list[str] = []
     n_explore = int(round(exploration * batch))
-    for role, points, allowed, slots in (("exploit", mean, feasible, batch - n_explore),
-                                         ("explore", optimistic, hopeful, n_explore)):
+    n_boundary = int(round(BOUNDARY * batch)) if boundary.any() else 0
+    for role, points, allowed, slots in (("boundary", mean, safe & boundary, n_boundary),
+                                         ("exploit", mean, feasible & ~boundary, None),
+                                         ("explore", optimistic, hopeful & ~boundary, n_explore)):
+        slots = batch - n_explore - len(chosen) if slots is None else slots
         taken = 0
         while taken < slots:
             candidates = np.flatnonzero(available & allowed)
@@ -147,7 +164,7 @@ def choose(prediction: Prediction, front: np.ndarray, reference: np.ndarray | No
     # left, the candidate farthest from every design chosen or evaluated)
     rank = _predicted_rank(prediction, failure_limit)
     while len(chosen) < batch:
-        candidates = np.flatnonzero(available)
+        candidates = np.flatnonzero(available & ~boundary)
         if len(candidates) == 0:
             break
         candidates = candidates[rank[candidates] == rank[candidates].min()]
@@ -247,14 +264,16 @@ def _on_models(problem, models: Models, failure_limit: float, feasible: Callable
 
 def propose(problem, models: Models, population_X: np.ndarray, *, batch: int, pool: int, exploration: float,
             failure_limit: float, front: np.ndarray, reference: np.ndarray | None, evaluated_X: np.ndarray, seed: int,
-            crossover, mutation, population_size: int) -> Proposal:
+            crossover, mutation, population_size: int, boundary_X: np.ndarray | None = None) -> Proposal:
     """The batch of one surrogate-assisted generation (module docstring).
 
     problem: the :class:`CampaignProblem`; models: fitted on the store; population_X: the campaign's
     population (the inner search starts there); front: minimised objectives of the run's feasible
     non-dominated designs; reference: the run's hypervolume reference point (minimised); evaluated_X:
     every design already evaluated; seed: of the inner search;
-    crossover, mutation: the campaign's settings (``eta``, ``prob``)."""
+    crossover, mutation: the campaign's settings (``eta``, ``prob``); boundary_X: candidates of the
+    boundary share (:func:`boundary_midpoints`, problem units), which meet the cheap geometric conditions
+    and the full check like every other candidate."""
     from pymoo.algorithms.moo.nsga2 import NSGA2
     from pymoo.operators.crossover.sbx import SBX
     from pymoo.operators.mutation.pm import PM
@@ -279,6 +298,12 @@ def propose(problem, models: Models, population_X: np.ndarray, *, batch: int, po
     minimize(inner, algorithm, ("n_gen", generations + 1), seed=seed, verbose=False)
     pool_X = np.vstack(inner.pool) if inner.pool else np.zeros((0, problem.n_var))
     pool_X = np.unique(pool_X, axis=0)
+    boundary = np.zeros(len(pool_X), bool)
+    if boundary_X is not None and len(boundary_X):
+        extra = boundary_X[feasible(boundary_X)]
+        extra = np.unique(extra[~_near(models.scale(extra), models.scale(pool_X))], axis=0) if len(extra) else extra
+        pool_X = np.vstack([pool_X, extra])
+        boundary = np.append(boundary, np.ones(len(extra), bool))
     prediction = models.predict(pool_X)
     scaled = models.scale(pool_X)
     checks = {"checked": 0, "rejected": 0}
@@ -291,7 +316,42 @@ def propose(problem, models: Models, population_X: np.ndarray, *, batch: int, po
         return ok
 
     index, roles = choose(prediction, front, reference, batch, exploration, failure_limit, scaled,
-                          models.scale(evaluated_X) if len(evaluated_X) else np.zeros((0, problem.n_var)), confirm)
+                          models.scale(evaluated_X) if len(evaluated_X) else np.zeros((0, problem.n_var)), confirm,
+                          boundary)
     chosen = Prediction(*(getattr(prediction, f)[index] for f in ("mean", "std", "g_mean", "g_std", "p_fail")))
     return Proposal(pool_X[index], roles, chosen, inner.drawn, len(pool_X), checks["checked"], checks["rejected"],
                     {"screen": time.perf_counter() - t0})
+
+
+def boundary_midpoints(data, reference: np.ndarray | None, lower: np.ndarray, upper: np.ndarray) -> np.ndarray:
+    """Candidates for the boundary step: for every feasible front design, the midpoint (design space) between
+    it and the nearest (unit box) evaluated design that violates a modelled constraint and whose computed
+    objectives would still improve the run's front. Repeated over generations this is a bisection on
+    computed values: the midpoint, once evaluated, is either a new front design or the new nearest violating
+    one, so a front that lies on a constraint boundary is approached at the rate a stationary model of the
+    constraint cannot give.
+
+    data: the :class:`~optimizer.campaign.surrogate.TrainingData`; reference: the run's hypervolume
+    reference point (minimised). Returns ``(n, d)`` design vectors (problem units); none without both kinds."""
+    d = data.X.shape[1]
+    ok = ~data.failed
+    if data.G.shape[1] == 0 or not ok.any():
+        return np.zeros((0, d))
+    violation = np.clip(np.nan_to_num(data.G, nan=0.0), 0.0, None).sum(axis=1)
+    on_front = ok & (violation <= 0.0) & (data.rank == 0)
+    beyond = ok & (violation > 0.0)
+    if not on_front.any() or not beyond.any():
+        return np.zeros((0, d))
+    front = data.F[on_front]
+    lo, hi = _normalisation(front, data.F[beyond], reference)
+    gain = hypervolume_improvement((front - lo) / (hi - lo), (data.F[beyond] - lo) / (hi - lo),
+                                   np.ones(front.shape[1]))
+    b = np.flatnonzero(beyond)[gain > 0.0]
+    if len(b) == 0:
+        return np.zeros((0, d))
+    scale = np.where(upper > lower, upper - lower, 1.0)
+    a = np.flatnonzero(on_front)
+    Xa, Xb = (data.X[a] - lower) / scale, (data.X[b] - lower) / scale
+    distance = ((Xa[:, None, :] - Xb[None, :, :]) ** 2).sum(axis=2)
+    nearest = b[np.argmin(distance, axis=1)]
+    return 0.5 * (data.X[a] + data.X[nearest])

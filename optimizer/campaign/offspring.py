@@ -18,7 +18,7 @@ Each step returns the offspring and a ``search`` record stored with the generati
   Eq. 21 and, in tool-path mode, Eq. 22, and the full check runs only where the choice reaches):
     checked, rejected  pool designs given the full geometric check, and of those the infeasible
     training   designs the regressions were fitted on; theta: {model: log-hyperparameters}
-    predicted  {key: {"mean": [...], "std": [...], "p_fail": p, "role": exploit|explore|fill}}
+    predicted  {key: {"mean": [...], "std": [...], "p_fail": p, "role": boundary|exploit|explore|fill}}
     error      after the batch is evaluated: {objective label: RMSE / standard deviation of the training
                values} over the batch's designs with values (out of sample: none was in the training set)
     failures   {"predicted": mean p_fail, "observed": share of the batch without values}
@@ -106,7 +106,7 @@ class SurrogateOffspring(PlainOffspring):
         from pymoo.core.population import Population
         from threadpoolctl import threadpool_limits
 
-        from optimizer.campaign.infill import propose
+        from optimizer.campaign.infill import boundary_midpoints, propose
         from optimizer.campaign.surrogate import Models
 
         a = self.config.algorithm
@@ -128,7 +128,9 @@ class SurrogateOffspring(PlainOffspring):
                                exploration=a.surrogate.exploration, failure_limit=a.surrogate.failure_limit,
                                front=front, reference=self.store.campaign().reference,
                                evaluated_X=evaluated, seed=_seed(a.seed, g), crossover=a.crossover,
-                               mutation=a.mutation, population_size=a.population)
+                               mutation=a.mutation, population_size=a.population,
+                               boundary_X=boundary_midpoints(data, self.store.campaign().reference,
+                                                             self.problem.lower, self.problem.upper))
         if len(proposal.X) == 0:
             return self._fallback(algorithm, g, f"none of the {proposal.drawn} candidates drawn on the models "
                                                "is geometrically feasible")

@@ -10,7 +10,7 @@ import pytest
 
 from optimizer.campaign.config import ConfigError, load_campaign
 from optimizer.campaign.driver import run_campaign
-from optimizer.campaign.infill import choose, hypervolume_improvement
+from optimizer.campaign.infill import boundary_midpoints, choose, hypervolume_improvement
 from optimizer.campaign.offspring import FeasibleOffspring
 from optimizer.campaign.progress import format_status, search_text, status_of
 from optimizer.campaign.store import STORE_NAME, Store, non_dominated
@@ -125,6 +125,38 @@ def test_slots_nothing_improves_follow_the_predicted_order():
     index, roles = choose(prediction, front=np.array([[0.1, 0.1]]), reference=np.array([1.1, 1.1]), batch=2,
                           exploration=0.0, failure_limit=0.5, X=X, evaluated=np.zeros((0, 1)))
     assert sorted(index) == [1, 2] and roles == ["fill", "fill"]
+
+
+def _boundary_data(G):
+    """A front design at (0.8, 0.5); violating designs: one improving the front near it, one improving it
+    farther away, one nearest of all that improves nothing."""
+    X = np.array([[0.8, 0.5], [0.4, 0.5], [0.0, 0.5], [0.75, 0.5]])
+    F = np.array([[0.5, 0.5], [0.3, 0.3], [0.2, 0.2], [0.6, 0.6]])
+    return TrainingData(X, np.zeros(4, bool), F, np.asarray(G, float).reshape(4, -1),
+                        np.array([0.0, 1e5, 1e5, 1e5]), np.arange(4.0))
+
+
+def test_boundary_candidates_bisect_towards_the_nearest_violating_design_that_improves_the_front():
+    data = _boundary_data([[-1.0], [0.2], [0.5], [0.1]])
+    mid = boundary_midpoints(data, np.array([1.1, 1.1]), np.zeros(2), np.ones(2))
+    assert mid == pytest.approx(np.array([[0.6, 0.5]]))
+
+
+def test_no_boundary_candidates_without_modelled_constraints_or_violations():
+    assert boundary_midpoints(_boundary_data(np.zeros((4, 0))), None, np.zeros(2), np.ones(2)).shape == (0, 2)
+    assert boundary_midpoints(_boundary_data([[-1.0]] * 4), None, np.zeros(2), np.ones(2)).shape == (0, 2)
+
+
+def test_the_boundary_share_is_chosen_without_the_constraint_models():
+    X = np.linspace(0, 1, 5)[:, None]
+    mean = [[0.2, 0.5], [0.35, 0.35], [0.5, 0.2], [0.55, 0.55], [0.1, 0.55]]
+    g = np.array([[-1.0], [-1.0], [-1.0], [1.0], [1.0]])          # the last two predicted to violate
+    prediction = Prediction(np.array(mean), np.zeros((5, 2)), g, np.zeros((5, 1)), np.zeros(5))
+    boundary = np.array([False, False, False, True, True])
+    index, roles = choose(prediction, front=np.array([[0.6, 0.6]]), reference=np.array([1.1, 1.1]), batch=4,
+                          exploration=0.0, failure_limit=0.5, X=X, evaluated=np.zeros((0, 1)), boundary=boundary)
+    assert roles == ["boundary", "exploit", "exploit", "exploit"]    # a quarter of the batch
+    assert index[0] == 4 and sorted(index[1:]) == [0, 1, 2]
 
 
 # ------------------------------------------------------------------------------------- plain mode
