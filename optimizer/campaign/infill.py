@@ -44,7 +44,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from optimizer.campaign.surrogate import Models, Prediction
+from optimizer.campaign.surrogate import Models, Prediction, TrainingData
 
 #: Optimism of the exploration share: the optimistic point is ``mean − KAPPA·std``.
 KAPPA = 2.0
@@ -323,7 +323,8 @@ def propose(problem, models: Models, population_X: np.ndarray, *, batch: int, po
                     {"screen": time.perf_counter() - t0})
 
 
-def boundary_midpoints(data, reference: np.ndarray | None, lower: np.ndarray, upper: np.ndarray) -> np.ndarray:
+def boundary_midpoints(data: TrainingData, reference: np.ndarray | None, lower: np.ndarray,
+                       upper: np.ndarray) -> np.ndarray:
     """Candidates for the boundary step: for every feasible front design, the midpoint (design space) between
     it and the nearest (unit box) evaluated design that violates a modelled constraint and whose computed
     objectives would still improve the run's front. Repeated over generations this is a bisection on
@@ -331,7 +332,7 @@ def boundary_midpoints(data, reference: np.ndarray | None, lower: np.ndarray, up
     one, so a front that lies on a constraint boundary is approached at the rate a stationary model of the
     constraint cannot give.
 
-    data: the :class:`~optimizer.campaign.surrogate.TrainingData`; reference: the run's hypervolume
+    data: what the models learn from (every design that reached a worker); reference: the run's hypervolume
     reference point (minimised). Returns ``(n, d)`` design vectors (problem units); none without both kinds."""
     d = data.X.shape[1]
     ok = ~data.failed
