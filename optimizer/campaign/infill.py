@@ -55,9 +55,10 @@ BOUNDARY = 0.25
 @dataclass
 class Proposal:
     """A batch for the CFD. X: ``(batch, d)``; roles: ``boundary``/``exploit``/``explore``/``fill`` per
-    design; prediction: the models' output for ``X``; drawn: candidates the search drew; screened: of those, the
-    distinct ones that meet the cheap necessary conditions (the pool); checked: pool designs given the
-    full geometric check on the way to the batch; rejected: of those, the infeasible; seconds: ``{"screen"}``."""
+    design; prediction: the models' output for ``X``; drawn: candidates the search drew, the boundary
+    share's included; screened: of those, the distinct ones that meet the cheap necessary conditions (the
+    pool); checked: pool designs given the full geometric check on the way to the batch; rejected: of
+    those, the infeasible; seconds: ``{"screen"}``."""
 
     X: np.ndarray
     roles: list[str]
@@ -319,7 +320,8 @@ def propose(problem, models: Models, population_X: np.ndarray, *, batch: int, po
                           models.scale(evaluated_X) if len(evaluated_X) else np.zeros((0, problem.n_var)), confirm,
                           boundary)
     chosen = Prediction(*(getattr(prediction, f)[index] for f in ("mean", "std", "g_mean", "g_std", "p_fail")))
-    return Proposal(pool_X[index], roles, chosen, inner.drawn, len(pool_X), checks["checked"], checks["rejected"],
+    drawn = inner.drawn + (len(boundary_X) if boundary_X is not None else 0)
+    return Proposal(pool_X[index], roles, chosen, drawn, len(pool_X), checks["checked"], checks["rejected"],
                     {"screen": time.perf_counter() - t0})
 
 

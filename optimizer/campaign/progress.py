@@ -54,12 +54,15 @@ def progress_line(p) -> str:
 
 def search_text(search: dict | None) -> str:
     """How a generation's offspring were found, in a few words: ``drew 120, 100 feasible, 100 to CFD``
-    (plain), ``drew 1000, 765 screened, 20 to CFD (2 of 22 checked infeasible)`` (surrogate) and, once
-    evaluated, the models' out-of-sample error on them (surrogate mode)."""
+    (plain), ``drew 1000, 765 screened, 20 to CFD (2 of 22 checked infeasible)`` (surrogate; with CFD
+    constraints ``20 to CFD, 5 bisecting constraint boundaries``: the boundary share) and, once evaluated,
+    the models' out-of-sample error on them (surrogate mode)."""
     if not search or search.get("drawn") is None:
         return ""
     if "checked" in search:     # surrogate: the pool passed the cheap conditions, the batch the full check
-        text = (f"drew {search['drawn']}, {search['screened']} screened, {search['batch']} to CFD "
+        roles = [p.get("role") for p in (search.get("predicted") or {}).values()]
+        boundary = f", {roles.count('boundary')} bisecting constraint boundaries" if "boundary" in roles else ""
+        text = (f"drew {search['drawn']}, {search['screened']} screened, {search['batch']} to CFD{boundary} "
                 f"({search['rejected']} of {search['checked']} checked infeasible)")
     else:
         text = f"drew {search['drawn']}, {search['screened']} feasible, {search['batch']} to CFD"

@@ -283,6 +283,21 @@ def test_without_designs_with_values_a_generation_takes_nsga2_offspring(tmp_path
     assert "NSGA-II's own offspring" in search_text(searched[1])
 
 
+def test_a_constrained_campaign_bisects_its_constraint_boundaries(tmp_path):
+    config = campaign(tmp_path, ZDT1.replace("zdt1, variables: 8", "mw3, variables: 6").replace("reference: 10",
+                                                                                              "reference: 1.1"),
+                      "algorithm.method=surrogate", "algorithm.offspring=8", "algorithm.seed=3")
+    run_campaign(config, tmp_path / "run")
+    with Store(tmp_path / "run" / STORE_NAME, readonly=True) as s:
+        searched = [g.search for g in s.generations()][1:]
+    roles = [[p["role"] for p in search["predicted"].values()] for search in searched]
+    assert any(r.count("boundary") == 2 for r in roles)                 # a quarter of the batch of 8
+    assert all(search["screened"] <= search["drawn"] for search in searched)
+    shown = [search_text(search) for search in searched if "boundary" in [p["role"] for p in
+                                                                         search["predicted"].values()]]
+    assert shown and all("8 to CFD, 2 bisecting constraint boundaries" in text for text in shown)
+
+
 def test_check_says_how_the_batch_fills_the_workers(tmp_path, capsys):
     from optimizer.cli import main
 
