@@ -5,9 +5,10 @@ Each case is ``millfoil run configs/paper/<case>.yaml --out OUT/<level>/<case> -
 algorithm.method=surrogate`` (the paper's population 100 and 50 generations: 100 + 49 × 20 = 1 080 CFD
 evaluations); a case that was interrupted is continued with ``millfoil resume``, a finished one is left
 alone, so the study spans sessions (the stores are the state). ``--report-only`` prints, per case, the
-state, the CFD evaluations (failed ones included), the CPU hours of the workers and the driver's wall time
-— the sum over generations of the time from the generation's first submission to its end, so that the
-hours between sessions do not count — and the command that draws the report of all of them.
+state, the CFD evaluations (failed ones included), the CPU hours of the workers and the wall time
+(:func:`busy_hours`: the hours during which an evaluation ran, plus the driver's model fitting and
+screening, so that the hours between sessions do not count, also inside a generation that was interrupted)
+and the command that draws the report of all of them.
 
     python bench/paper_study.py --level coarse                 # the eight cases, hours on 2 cores
     python bench/paper_study.py --level medium --cases toolpath_g1
@@ -66,13 +67,27 @@ def cost(directory: Path) -> dict | None:
         generations = s.generations()
     # the workers' CPU time (the report's rule: its wall time where a row has none)
     cpu = sum((r.seconds or {}).get("cpu") or r.wall_seconds or 0.0 for r in rows) / 3600
-    wall = 0.0
-    for g in generations:
-        started = [r.submitted for r in rows if r.generation == g.generation and r.submitted]
-        if started:
-            wall += (_time(g.finished) - _time(min(started))).total_seconds()
     return {"state": state, "evaluations": len(rows), "generations": len(generations), "cpu_hours": cpu,
-            "wall_hours": wall / 3600}
+            "wall_hours": busy_hours(rows, generations)}
+
+
+def busy_hours(rows, generations) -> float:
+    """Wall hours a run took: the union of its evaluations' intervals from submission to end (time with at
+    least one evaluation on a worker), plus the seconds the driver's surrogate step spent fitting models
+    and screening candidates between generations (stored with each generation; no evaluation runs then).
+    Time with nothing running, such as the hours between a stop and its ``resume``, does not count; nor do
+    the driver's few seconds of start-up and bookkeeping."""
+    spans = sorted((_time(r.submitted), _time(r.finished)) for r in rows if r.submitted)
+    busy, end = 0.0, None
+    for start, finish in spans:
+        if end is None or start > end:
+            busy += (finish - start).total_seconds()
+            end = finish
+        elif finish > end:
+            busy += (finish - end).total_seconds()
+            end = finish
+    driver = sum(sum(((g.search or {}).get("seconds") or {}).values()) for g in generations)
+    return (busy + driver) / 3600
 
 
 def _time(text: str) -> datetime:
