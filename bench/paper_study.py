@@ -95,11 +95,11 @@ def _time(text: str) -> datetime:
 
 
 def archive(out: Path, level: str, cases, dest: Path) -> None:
-    """Copy the runs of ``out/level`` to ``dest/level`` as the repository keeps them: each store packed
-    (a consistent snapshot, also of a running campaign; its message names the copy, not the original), its
-    ``config.yaml``, and only the fields files the report of all of them draws
-    (:func:`optimizer.report.html.fields_shown`), so that ``millfoil report`` of the copies draws the same
-    page. A run already there is replaced."""
+    """Copy the finished runs of ``out/level`` to ``dest/level`` as the repository keeps them: each store
+    packed (a consistent snapshot; its message names the copy, not the original), its ``config.yaml``, and
+    only the fields files the report of all of them draws (:func:`optimizer.report.html.fields_shown`), so
+    that ``millfoil report`` of the copies draws the same page. A run already there is replaced. A run that
+    is not finished is named and left out: the report would take its partial front for the case's."""
     import shutil
     import sqlite3
 
@@ -110,6 +110,9 @@ def archive(out: Path, level: str, cases, dest: Path) -> None:
     from optimizer.report.run import load_run
 
     runs = [load_run(out / level / case) for case in cases if stored(out / level / case / STORE_NAME)]
+    for run in (r for r in runs if r.campaign.state != "finished"):
+        print(f"{run.directory}: not archived, the campaign is {run.campaign.state}", file=sys.stderr)
+    runs = [r for r in runs if r.campaign.state == "finished"]
     shown = fields_shown(runs)
     for run in runs:
         target = dest / level / run.directory.name
