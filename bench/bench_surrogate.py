@@ -19,6 +19,7 @@ population of 50, then batches of 10), the IGD of the archive's front against ZD
 
     python bench/bench_surrogate.py                                   # the whole suite, 11 seeds, 2 jobs
     python bench/bench_surrogate.py --cases zdt1 mw3 --seeds 3 --failures none
+    python bench/bench_surrogate.py --cases mw1 mw2 --kernel additive       # the surrogate with the additive kernel
     python bench/bench_surrogate.py --report-only --json docs/figures/surrogate.json
 """
 
@@ -120,12 +121,12 @@ def igd_zdt1(directory: Path) -> float:
     return float(IGD(np.column_stack([f1, 1 - np.sqrt(f1)]))(front))
 
 
-def summarise(out: Path, cases, failures, seeds) -> dict:
+def summarise(out: Path, cases, failures, seeds, surrogate: str = "surrogate") -> dict:
     table = {}
     for case in cases:
         for fail in failures:
             plain = [archive_hypervolume(out / case / fail / f"plain-{s}") for s in seeds]
-            sur = [archive_hypervolume(out / case / fail / f"surrogate-{s}") for s in seeds]
+            sur = [archive_hypervolume(out / case / fail / f"{surrogate}-{s}") for s in seeds]
             target = float(np.median([h[min(PLAIN_BUDGET, len(h)) - 1] for h in plain]))
             needed = []
             for h in sur:
@@ -150,20 +151,26 @@ def main() -> int:
     parser.add_argument("--out", type=Path, default=ROOT / "runs" / "bench" / "surrogate")
     parser.add_argument("--report-only", action="store_true", help="summarise the stores already there")
     parser.add_argument("--json", type=Path, help="also write the figures here")
+    parser.add_argument("--kernel", choices=("product", "additive"), default="product",
+                        help="the surrogate's algorithm.surrogate.kernel (additive: runs named surrogate-additive-N)")
     args = parser.parse_args()
     seeds = list(range(1, args.seeds + 1))
-    work = [(args.out / c / f / f"{m}-{s}", campaign(c, f, m, s))
-            for f in args.failures for m in METHODS for c in args.cases for s in seeds]
-    pysamoo = [(args.out / "pysamoo" / f"surrogate-{s}",
+    runs = {"plain": ("plain", METHODS["plain"]), "surrogate": ("surrogate", METHODS["surrogate"])}
+    if args.kernel == "additive":
+        runs["surrogate"] = ("surrogate-additive", {**METHODS["surrogate"], "surrogate": {"kernel": "additive"}})
+    work = [(args.out / c / f / f"{name}-{s}", campaign(c, f, m, s, algorithm=algorithm))
+            for f in args.failures for m, (name, algorithm) in runs.items() for c in args.cases for s in seeds]
+    name, algorithm = runs["surrogate"]
+    pysamoo = [(args.out / "pysamoo" / f"{name}-{s}",
                 campaign("zdt1", "none", "surrogate", s, variables=10,
-                         algorithm={"method": "surrogate", "population": 50, "generations": 16, "offspring": 10}))
+                         algorithm={**algorithm, "population": 50, "generations": 16, "offspring": 10}))
                for s in seeds]
     if not args.report_only:
         t0 = time.perf_counter()
         with ThreadPoolExecutor(args.jobs) as pool:
             list(pool.map(lambda item: run_one(*item), pysamoo + work))
         print(f"ran in {time.perf_counter() - t0:.0f} s with {args.jobs} jobs", file=sys.stderr)
-    table = summarise(args.out, args.cases, args.failures, seeds)
+    table = summarise(args.out, args.cases, args.failures, seeds, runs["surrogate"][0])
     igd = [igd_zdt1(d) for d, _ in pysamoo]
     print(f"# surrogate vs plain NSGA-II, {len(seeds)} seeds; machine: {platform.node()}, {os.cpu_count()} cores, "
           f"{datetime.now(UTC):%Y-%m-%d}")

@@ -174,6 +174,8 @@ class Mutation(Section):
 
 #: Search methods of ``algorithm.method``.
 METHODS = ("nsga2", "surrogate")
+#: Kernels of ``algorithm.surrogate.kernel`` (:mod:`optimizer.campaign.surrogate`).
+KERNELS = ("product", "additive")
 
 
 class SurrogateSettings(Section):
@@ -189,6 +191,10 @@ class SurrogateSettings(Section):
                           "on (a Gaussian process costs O(n³)): those nearest the front")
     failure_limit: float = Field(0.5, gt=0, le=1, description="candidates whose predicted probability of failing "
                                  "(no mesh, diverged, unsettled, timeout) is above this are not sent")
+    kernel: Literal[KERNELS] = Field("product", description="the Gaussian processes' kernel. product: constant × "
+                                     "Matérn 5/2 with a length scale per design variable, plus noise; additive: "
+                                     "the same plus a Matérn 5/2 term per variable (one-variable effects), which "
+                                     "ranks many-variable problems better (decision 0017)")
 
 
 class AlgorithmConfig(Section):

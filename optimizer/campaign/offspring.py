@@ -118,7 +118,8 @@ class SurrogateOffspring(PlainOffspring):
                                                f"has {with_values}")
         last = self.store.last_generation()
         theta = (last.search or {}).get("theta") if last is not None else None
-        models = Models(self.problem.lower, self.problem.upper, self.problem.objective_labels, self.modelled)
+        models = Models(self.problem.lower, self.problem.upper, self.problem.objective_labels, self.modelled,
+                        kernel=a.surrogate.kernel)
         # one BLAS thread: the matrices are small, and a thread count's summation order would otherwise
         # change the fitted models in their last bits between a run and its resumption on another machine
         with threadpool_limits(limits=1):

@@ -1,9 +1,18 @@
 """Surrogate models of a campaign's expensive answers, fitted from its store.
 
 One Gaussian-process regression per CFD objective and per CFD-derived constraint (scikit-learn's
-:class:`~sklearn.gaussian_process.GaussianProcessRegressor`: constant × Matérn 5/2 with one length scale
-per design variable, plus a white-noise term for the solver's scatter), fitted on the designs that gave
-values; and a Gaussian-process classifier of **failure** — a design that does not give usable values
+:class:`~sklearn.gaussian_process.GaussianProcessRegressor`), fitted on the designs that gave values. Its
+kernel (``algorithm.surrogate.kernel``) sums, weighed against each other by the marginal likelihood at
+every fit:
+
+* constant × Matérn 5/2 with one length scale per design variable: variables that act together;
+* with ``kernel: additive`` only, the first-order additive Matérn 5/2
+  (:class:`~optimizer.campaign.additive.AdditiveMatern`): a variance and a length scale per variable for
+  effects of one variable at a time, which the product term learns only from designs near each other in
+  every variable at once, and which it therefore misses in many variables with a few hundred designs;
+* white noise, for the solver's scatter;
+
+and a Gaussian-process classifier of **failure** — a design that does not give usable values
 (failed mesh, diverged or unsettled solve, timeout) — fitted on every design that reached a worker.
 
 Conventions:
@@ -72,12 +81,16 @@ def _optimizer(iterations: int):
     return run
 
 
-def _regressor(d: int, theta: Sequence[float] | None):
+def _regressor(d: int, theta: Sequence[float] | None, additive: bool):
     from sklearn.gaussian_process import GaussianProcessRegressor
     from sklearn.gaussian_process.kernels import ConstantKernel, Matern, WhiteKernel
 
-    kernel = (ConstantKernel(1.0, (1e-3, 1e3)) * Matern(np.full(d, 0.5), (1e-3, 1e2), nu=2.5)
-              + WhiteKernel(1e-4, (1e-8, 1e-1)))
+    from optimizer.campaign.additive import AdditiveMatern
+
+    kernel = ConstantKernel(1.0, (1e-3, 1e3)) * Matern(np.full(d, 0.5), (1e-3, 1e2), nu=2.5)
+    if additive:
+        kernel = kernel + AdditiveMatern(np.full(d, 0.1), np.full(d, 0.3))
+    kernel = kernel + WhiteKernel(1e-4, (1e-8, 1e-1))
     if theta is not None and len(theta) == len(kernel.theta):
         kernel = kernel.clone_with_theta(np.clip(np.asarray(theta, float), *kernel.bounds.T))
     return GaussianProcessRegressor(kernel, normalize_y=True, optimizer=_optimizer(FIT_ITERATIONS))
@@ -87,11 +100,16 @@ class Models:
     """The fitted models of one generation (see the module docstring).
 
     lower, upper: the design box; labels: names of the modelled objectives and constraints (for the
-    stored hyperparameters); theta: ``{label: log-hyperparameters}`` to warm-start from.
+    stored hyperparameters); kernel: ``product`` or ``additive`` (``algorithm.surrogate.kernel``, the
+    module docstring); theta: ``{label: log-hyperparameters}`` to warm-start from.
     """
 
-    def __init__(self, lower: np.ndarray, upper: np.ndarray, objectives: Sequence[str], constraints: Sequence[str]):
+    def __init__(self, lower: np.ndarray, upper: np.ndarray, objectives: Sequence[str], constraints: Sequence[str],
+                 kernel: str = "product"):
+        if kernel not in ("product", "additive"):
+            raise ValueError(f"kernel must be 'product' or 'additive', not {kernel!r}")
         self.lower, self.upper = np.asarray(lower, float), np.asarray(upper, float)
+        self.additive = kernel == "additive"
         self.objectives, self.constraints = tuple(objectives), tuple(constraints)
         self._regressors: dict[str, object] = {}
         self._classifier = None
@@ -118,7 +136,7 @@ class Models:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")        # convergence warnings of a bounded fit: expected
             for label, y in targets:
-                model = _regressor(X.shape[1], theta.get(label))
+                model = _regressor(X.shape[1], theta.get(label), self.additive)
                 self._regressors[label] = model.fit(X, y)
             self._fit_classifier(data, cap, theta.get("failure"))
         return self

@@ -232,6 +232,17 @@ def test_a_surrogate_campaign_beats_plain_nsga2_at_equal_evaluations(tmp_path):
     assert status["method"] == "surrogate" and "model error f1" in format_status(status)
 
 
+def test_the_additive_kernel_is_fitted_and_stored_with_its_term(tmp_path):
+    """``kernel: additive`` adds a variance and a length scale per design variable to each regression's stored
+    hyperparameters (product: constant, 8 length scales, noise)."""
+    config = campaign(tmp_path, ZDT1, "algorithm.method=surrogate", "algorithm.generations=3",
+                      "algorithm.surrogate={pool: 5, training: 40, kernel: additive}")
+    run_campaign(config, tmp_path / "run")
+    with Store(tmp_path / "run" / STORE_NAME, readonly=True) as s:
+        theta = s.generations()[-1].search["theta"]
+    assert len(theta["f1"]) == len(theta["f2"]) == 1 + 8 + 2 * 8 + 1
+
+
 def test_plain_generations_record_their_draws(tmp_path):
     run_campaign(campaign(tmp_path, ZDT1, "algorithm.generations=2"), tmp_path / "run")
     with Store(tmp_path / "run" / STORE_NAME, readonly=True) as s:
@@ -244,6 +255,7 @@ def test_plain_generations_record_their_draws(tmp_path):
     ("algorithm.method=kriging", r"algorithm.method.*nsga2.*surrogate"),
     ("algorithm.surrogate.pool=0", r"algorithm.surrogate.pool"),
     ("algorithm.surrogate.exploration=1.5", r"algorithm.surrogate.exploration"),
+    ("algorithm.surrogate.kernel=rbf", r"algorithm.surrogate.kernel.*product.*additive"),
     ("algorithm.surrogate.kappa=2", r"unknown key 'algorithm.surrogate.kappa'; allowed: pool, exploration"),
 ])
 def test_bad_surrogate_settings_name_the_key(tmp_path, override, message):
