@@ -16,6 +16,7 @@ measured 11–14 s of a converged design, on 2 workers). Target: fit + screen be
     python bench/bench_surrogate_cost.py                          # 500 and 2000 stored designs
     python bench/bench_surrogate_cost.py --stored 2000 --config configs/paper/design_g1.yaml
     python bench/bench_surrogate_cost.py --stored 2000 --training 100 200 400 800   # the cap's cubic cost
+    python bench/bench_surrogate_cost.py --stored 2000 --kernel additive            # with the additive term
 """
 
 from __future__ import annotations
@@ -86,13 +87,13 @@ class _Algorithm:
         self.pop = Population.new("X", X)
 
 
-def measure(config_path: Path, stored: int, seed: int, training: int | None = None) -> dict:
+def measure(config_path: Path, stored: int, seed: int, training: int | None = None, kernel: str = "product") -> dict:
     from optimizer.campaign.config import load_campaign
     from optimizer.campaign.offspring import SurrogateOffspring
     from optimizer.campaign.problem import make_problem
     from optimizer.campaign.store import STORE_NAME, Store
 
-    config = load_campaign(config_path, ["algorithm.method=surrogate",
+    config = load_campaign(config_path, ["algorithm.method=surrogate", f"algorithm.surrogate.kernel={kernel}",
                                          *([f"algorithm.surrogate.training={training}"] if training else [])])
     problem = make_problem(config)
     X = feasible_designs(problem, stored, seed)
@@ -118,12 +119,14 @@ def main() -> int:
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument("--training", type=int, nargs="+", default=[None],
                         help="training-set caps to compare (default: the configuration's)")
+    parser.add_argument("--kernel", choices=("product", "additive"), default="product",
+                        help="algorithm.surrogate.kernel")
     args = parser.parse_args()
     print(f"# surrogate cost per generation: {args.config.name}; machine {platform.node()}, {os.cpu_count()} cores")
     print("| stored | trained on | pool drawn | feasible | batch | fit s | screen s | batch CFD s | share |")
     print("|---|---|---|---|---|---|---|---|---|")
     for n, training in ((n, t) for n in args.stored for t in args.training):
-        m = measure(args.config, n, args.seed, training)
+        m = measure(args.config, n, args.seed, training, args.kernel)
         cfd = m["batch"] * args.cfd_seconds / args.workers
         share = (m["fit_s"] + m["screen_s"]) / cfd
         print(f"| {n} | {m['training']} | {m['drawn']} | {m['screened']} | {m['batch']} | {m['fit_s']:.2f} | "

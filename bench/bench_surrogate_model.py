@@ -120,7 +120,7 @@ def compare(name: str, X, F, G, labels) -> None:
             seconds = time.perf_counter() - t0
             rho = spearmanr(gp.predict(X[test]), Y[test, j])[0]
             cells.append(f"{rho:.3f} | {gp.log_marginal_likelihood_value_:.1f} | {seconds:.1f}")
-        print(f"| {name} | {label} | {' | '.join(cells)} |", flush=True)
+        print(f"| {name} | {label.replace('|', chr(92) + '|')} | {' | '.join(cells)} |", flush=True)
 
 
 def main() -> None:
