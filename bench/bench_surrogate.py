@@ -151,7 +151,9 @@ def main() -> int:
     parser.add_argument("--out", type=Path, default=ROOT / "runs" / "bench" / "surrogate")
     parser.add_argument("--report-only", action="store_true", help="summarise the stores already there")
     parser.add_argument("--json", type=Path, help="also write the figures here")
-    parser.add_argument("--kernel", choices=("product", "additive"), default="product",
+    from optimizer.campaign.config import KERNELS
+
+    parser.add_argument("--kernel", choices=KERNELS, default="product",
                         help="the surrogate's algorithm.surrogate.kernel (additive: runs named surrogate-additive-N)")
     args = parser.parse_args()
     seeds = list(range(1, args.seeds + 1))

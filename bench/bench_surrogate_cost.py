@@ -119,7 +119,9 @@ def main() -> int:
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument("--training", type=int, nargs="+", default=[None],
                         help="training-set caps to compare (default: the configuration's)")
-    parser.add_argument("--kernel", choices=("product", "additive"), default="product",
+    from optimizer.campaign.config import KERNELS
+
+    parser.add_argument("--kernel", choices=KERNELS, default="product",
                         help="algorithm.surrogate.kernel")
     args = parser.parse_args()
     print(f"# surrogate cost per generation: {args.config.name}; machine {platform.node()}, {os.cpu_count()} cores")

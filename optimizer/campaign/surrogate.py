@@ -38,6 +38,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from optimizer.campaign.config import KERNELS
+
 #: Iterations of the hyperparameter optimiser per fit (warm-started: a few suffice once the run settles).
 FIT_ITERATIONS = 60
 
@@ -106,8 +108,8 @@ class Models:
 
     def __init__(self, lower: np.ndarray, upper: np.ndarray, objectives: Sequence[str], constraints: Sequence[str],
                  kernel: str = "product"):
-        if kernel not in ("product", "additive"):
-            raise ValueError(f"kernel must be 'product' or 'additive', not {kernel!r}")
+        if kernel not in KERNELS:
+            raise ValueError(f"kernel must be one of {KERNELS}, not {kernel!r}")
         self.lower, self.upper = np.asarray(lower, float), np.asarray(upper, float)
         self.additive = kernel == "additive"
         self.objectives, self.constraints = tuple(objectives), tuple(constraints)
