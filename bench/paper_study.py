@@ -12,6 +12,7 @@ and the command that draws the report of all of them.
 
     python bench/paper_study.py --level coarse                 # the eight cases, hours on 2 cores
     python bench/paper_study.py --level medium --cases toolpath_g1
+    python bench/paper_study.py --level medium --cases design_g1 --set convergence.max_amplitude=0.01
     python bench/paper_study.py --level coarse --report-only
     python bench/paper_study.py --level coarse --report-only --out /scratch/paper --archive runs/examples/paper
 """
@@ -32,8 +33,9 @@ sys.path.insert(0, str(ROOT))
 CASES = tuple(f"{mode}_{continuity}" for continuity in ("g1", "c1", "g2", "c2") for mode in ("design", "toolpath"))
 
 
-def run_case(case: str, level: str, directory: Path, workers: int | None) -> None:
-    """Run, or continue, one case in ``directory`` (nothing when it is finished)."""
+def run_case(case: str, level: str, directory: Path, workers: int | None, settings: list[str] = ()) -> None:
+    """Run, or continue, one case in ``directory`` (nothing when it is finished); ``settings`` (``KEY=VALUE``)
+    change the configuration of a case that starts here (a started one keeps its own)."""
     from optimizer.campaign.store import STORE_NAME, Store, stored
 
     cli = [sys.executable, "-m", "optimizer.cli"]
@@ -47,7 +49,7 @@ def run_case(case: str, level: str, directory: Path, workers: int | None) -> Non
     if stored(store):
         command = [*cli, "resume", str(directory), *(a for kv in execution for a in ("--set", kv))]
     else:
-        overrides = [f"mesh.level={level}", "algorithm.method=surrogate", *execution]
+        overrides = [f"mesh.level={level}", "algorithm.method=surrogate", *settings, *execution]
         command = [*cli, "run", str(ROOT / "configs" / "paper" / f"{case}.yaml"), "--out", str(directory),
                    *(a for kv in overrides for a in ("--set", kv))]
     print(" ".join(command[1:]), file=sys.stderr, flush=True)
@@ -162,6 +164,8 @@ def main() -> int:
     parser.add_argument("--cases", nargs="+", default=list(CASES), choices=list(CASES))
     parser.add_argument("--workers", type=int, help="execution.workers of every run (default: one per core)")
     parser.add_argument("--out", type=Path, default=ROOT / "runs" / "examples" / "paper")
+    parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", dest="settings",
+                        help="change a key of the configuration of the cases started now (repeatable)")
     parser.add_argument("--report-only", action="store_true", help="summarise the stores already there")
     parser.add_argument("--archive", type=Path, metavar="DEST",
                         help="then copy the runs to DEST/LEVEL as the repository keeps them (packed stores, the "
@@ -169,7 +173,7 @@ def main() -> int:
     args = parser.parse_args()
     if not args.report_only:
         for case in args.cases:
-            run_case(case, args.level, args.out / args.level / case, args.workers)
+            run_case(case, args.level, args.out / args.level / case, args.workers, args.settings)
     summary(args.out, args.level, args.cases)
     if args.archive:
         archive(args.out.resolve(), args.level, args.cases, args.archive.resolve())
