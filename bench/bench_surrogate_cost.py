@@ -17,6 +17,7 @@ measured 11–14 s of a converged design, on 2 workers). Target: fit + screen be
     python bench/bench_surrogate_cost.py --stored 2000 --config configs/paper/design_g1.yaml
     python bench/bench_surrogate_cost.py --stored 2000 --training 100 200 400 800   # the cap's cubic cost
     python bench/bench_surrogate_cost.py --stored 2000 --kernel additive            # with the additive term
+    python bench/bench_surrogate_cost.py --stored 2000 --set algorithm.surrogate.coordinate_search=true
 """
 
 from __future__ import annotations
@@ -87,14 +88,16 @@ class _Algorithm:
         self.pop = Population.new("X", X)
 
 
-def measure(config_path: Path, stored: int, seed: int, training: int | None = None, kernel: str = "product") -> dict:
+def measure(config_path: Path, stored: int, seed: int, training: int | None = None, kernel: str = "product",
+            settings: list[str] = ()) -> dict:
     from optimizer.campaign.config import load_campaign
     from optimizer.campaign.offspring import SurrogateOffspring
     from optimizer.campaign.problem import make_problem
     from optimizer.campaign.store import STORE_NAME, Store
 
     config = load_campaign(config_path, ["algorithm.method=surrogate", f"algorithm.surrogate.kernel={kernel}",
-                                         *([f"algorithm.surrogate.training={training}"] if training else [])])
+                                         *([f"algorithm.surrogate.training={training}"] if training else []),
+                                         *settings])
     problem = make_problem(config)
     X = feasible_designs(problem, stored, seed)
     with tempfile.TemporaryDirectory() as tmp, Store(Path(tmp) / STORE_NAME, sync="normal") as store:
@@ -123,12 +126,14 @@ def main() -> int:
 
     parser.add_argument("--kernel", choices=KERNELS, default="product",
                         help="algorithm.surrogate.kernel")
+    parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", dest="settings",
+                        help="another configuration key, e.g. algorithm.surrogate.coordinate_search=true")
     args = parser.parse_args()
     print(f"# surrogate cost per generation: {args.config.name}; machine {platform.node()}, {os.cpu_count()} cores")
     print("| stored | trained on | pool drawn | feasible | batch | fit s | screen s | batch CFD s | share |")
     print("|---|---|---|---|---|---|---|---|---|")
     for n, training in ((n, t) for n in args.stored for t in args.training):
-        m = measure(args.config, n, args.seed, training, args.kernel)
+        m = measure(args.config, n, args.seed, training, args.kernel, args.settings)
         cfd = m["batch"] * args.cfd_seconds / args.workers
         share = (m["fit_s"] + m["screen_s"]) / cfd
         print(f"| {n} | {m['training']} | {m['drawn']} | {m['screened']} | {m['batch']} | {m['fit_s']:.2f} | "

@@ -195,6 +195,10 @@ class SurrogateSettings(Section):
                                      "Matérn 5/2 with a length scale per design variable, plus noise; additive: "
                                      "the same plus a Matérn 5/2 term per variable (one-variable effects), which "
                                      "ranks many-variable problems better (decision 0017)")
+    coordinate_search: bool = Field(False, description="also move the best designs of the search on the models "
+                                    "one variable at a time over its whole range, to the best predicted value "
+                                    "(crosses the barriers between a variable's basins that NSGA-II's steps "
+                                    "rarely cross; pays with the additive kernel, decision 0017)")
 
 
 class AlgorithmConfig(Section):

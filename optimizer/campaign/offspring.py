@@ -131,7 +131,8 @@ class SurrogateOffspring(PlainOffspring):
                                evaluated_X=evaluated, seed=_seed(a.seed, g), crossover=a.crossover,
                                mutation=a.mutation, population_size=a.population,
                                boundary_X=boundary_midpoints(data, self.store.campaign().reference,
-                                                             self.problem.lower, self.problem.upper))
+                                                             self.problem.lower, self.problem.upper),
+                               coordinate_search=a.surrogate.coordinate_search)
         if len(proposal.X) == 0:
             return self._fallback(algorithm, g, f"none of the {proposal.drawn} candidates drawn on the models "
                                                "is geometrically feasible")

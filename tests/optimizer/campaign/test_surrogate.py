@@ -10,7 +10,7 @@ import pytest
 
 from optimizer.campaign.config import ConfigError, load_campaign
 from optimizer.campaign.driver import run_campaign
-from optimizer.campaign.infill import boundary_midpoints, choose, hypervolume_improvement
+from optimizer.campaign.infill import boundary_midpoints, choose, hypervolume_improvement, search_coordinates
 from optimizer.campaign.offspring import FeasibleOffspring
 from optimizer.campaign.progress import format_status, search_text, status_of
 from optimizer.campaign.store import STORE_NAME, Store, non_dominated
@@ -125,6 +125,34 @@ def test_slots_nothing_improves_follow_the_predicted_order():
     index, roles = choose(prediction, front=np.array([[0.1, 0.1]]), reference=np.array([1.1, 1.1]), batch=2,
                           exploration=0.0, failure_limit=0.5, X=X, evaluated=np.zeros((0, 1)))
     assert sorted(index) == [1, 2] and roles == ["fill", "fill"]
+
+
+class _TwoBasins:
+    """Models of a two-objective problem (f1 = x1, f2 = g − x1, as MW2) whose distance g is a sum of
+    one-variable double wells: a shallow basin at 0.05 (where every variable starts) and the deep one at 0.8,
+    behind a barrier."""
+
+    def predict(self, X):
+        well = 1.0 - np.exp(-50 * (X - 0.8) ** 2) - 0.3 * np.exp(-50 * (X - 0.05) ** 2)
+        mean = np.column_stack([X[:, 0], 1.0 + well[:, 1:].sum(axis=1) - X[:, 0]])
+        n = len(X)
+        return Prediction(mean, np.zeros_like(mean), np.zeros((n, 0)), np.zeros((n, 0)), np.zeros(n))
+
+
+def test_the_coordinate_search_crosses_the_barrier_between_a_variables_basins():
+    starts = np.array([[0.2, 0.05, 0.05, 0.05], [0.7, 0.05, 0.05, 0.05]])
+    moved = search_coordinates(_TwoBasins(), starts, np.zeros(4), np.ones(4), 0.5, lambda X: np.ones(len(X), bool),
+                               front=np.zeros((0, 2)), reference=np.array([1.1, 4.0]), rng=np.random.default_rng(1))
+    assert np.allclose(moved[:, 1:], 0.8, atol=0.01)           # every distance variable in its deep basin
+    assert moved[1, 0] - moved[0, 0] > 0.3                     # the starts keep their places along the front
+
+
+def test_the_coordinate_search_makes_no_move_that_breaks_the_cheap_conditions():
+    starts = np.array([[0.2, 0.05, 0.05, 0.05]])
+    allowed = lambda X: X[:, 2] < 0.5                          # noqa: E731 - the third variable may not move up
+    moved = search_coordinates(_TwoBasins(), starts, np.zeros(4), np.ones(4), 0.5, allowed,
+                               front=np.zeros((0, 2)), reference=np.array([1.1, 4.0]), rng=np.random.default_rng(1))
+    assert moved[0, 2] < 0.5 and np.allclose(moved[0, [1, 3]], 0.8, atol=0.01)
 
 
 def _boundary_data(G):
@@ -256,6 +284,7 @@ def test_plain_generations_record_their_draws(tmp_path):
     ("algorithm.surrogate.pool=0", r"algorithm.surrogate.pool"),
     ("algorithm.surrogate.exploration=1.5", r"algorithm.surrogate.exploration"),
     ("algorithm.surrogate.kernel=rbf", r"algorithm.surrogate.kernel.*product.*additive"),
+    ("algorithm.surrogate.coordinate_search=maybe", r"algorithm.surrogate.coordinate_search"),
     ("algorithm.surrogate.kappa=2", r"unknown key 'algorithm.surrogate.kappa'; allowed: pool, exploration"),
 ])
 def test_bad_surrogate_settings_name_the_key(tmp_path, override, message):
