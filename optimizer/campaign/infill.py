@@ -380,13 +380,13 @@ def search_coordinates(models: Models, starts: np.ndarray, lower: np.ndarray, up
     point, weighted along the ray through the start's own prediction, so that each start moves towards the
     front without crowding onto one point, and an objective that does not set the maximum still counts (the
     ray starts a tenth of the box beyond the ideal point, so a start at an end of the front has one); a
-    predicted constraint violation or a failure probability above ``failure_limit`` outweighs any objective. The first sweep tries
-    ``grid`` values over each variable's whole range, the next ones a grid as wide as one step of the
-    previous, centred on the value kept (variables in a random order each sweep). A move that breaks the
-    cheap geometric conditions is not made. The whole-range sweep crosses the barriers between one
-    variable's basins, which SBX and PM steps around the population rarely cross, wherever the models
-    have learnt them (the additive kernel's one-variable terms). Returns the moved designs ``(n, d)``;
-    problem units."""
+    predicted constraint violation or a failure probability above ``failure_limit`` outweighs any
+    objective. The first sweep tries ``grid`` values over each variable's whole range, the next ones a grid
+    as wide as one step of the previous, centred on the value kept (variables in a random order each
+    sweep). A move that breaks the cheap geometric conditions is not made. The whole-range sweep crosses the
+    barriers between one variable's basins, which SBX and PM steps around the population rarely cross,
+    wherever the models have learnt them (the additive kernel's one-variable terms). Returns the moved
+    designs ``(n, d)``, problem units."""
     X = np.array(starts, float)
     n, d = X.shape
     if n == 0:
