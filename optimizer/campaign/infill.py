@@ -376,17 +376,20 @@ def search_coordinates(models: Models, starts: np.ndarray, lower: np.ndarray, up
     """Each of ``starts`` moved, one variable at a time, to the best value of the models' merit on a grid.
 
     The merit of a design is the augmented Chebyshev distance (Knowles's ParEGO scalarisation, ρ =
-    :data:`AUGMENTED`) of its predicted objectives, scaled as :func:`choose` scales them, from the ideal
-    point, weighted along the ray through the start's own prediction, so that each start moves towards the
-    front without crowding onto one point, and an objective that does not set the maximum still counts (the
-    ray starts a tenth of the box beyond the ideal point, so a start at an end of the front has one); a
-    predicted constraint violation or a failure probability above ``failure_limit`` outweighs any
-    objective. The first sweep tries ``grid`` values over each variable's whole range, the next ones a grid
-    as wide as one step of the previous, centred on the value kept (variables in a random order each
-    sweep). A move that breaks the cheap geometric conditions is not made. The whole-range sweep crosses the
-    barriers between one variable's basins, which SBX and PM steps around the population rarely cross,
-    wherever the models have learnt them (the additive kernel's one-variable terms). Returns the moved
-    designs ``(n, d)``, problem units."""
+    :data:`AUGMENTED`) of its predicted objectives, scaled as :func:`choose` scales them, from a point a
+    tenth of the box beyond the ideal point, weighted along the ray through the start's own prediction:
+    each start moves towards the front without crowding onto one point, and an objective that does not set
+    the maximum still counts. A predicted constraint violation or a failure probability above
+    ``failure_limit`` outweighs any objective. Every second start is moved on the optimistic predictions
+    instead (objectives and constraints at mean − κ·std, κ = :data:`KAPPA`, the exploration share's view):
+    where the models know nothing of part of a variable's range, that start goes to look.
+
+    The first sweep tries ``grid`` values over each variable's whole range, the next ones a grid as wide as
+    one step of the previous, centred on the value kept (variables in a random order each sweep). A move
+    that breaks the cheap geometric conditions is not made. The whole-range sweep crosses the barriers
+    between one variable's basins, which SBX and PM steps around the population rarely cross, wherever the
+    models have learnt them (the additive kernel's one-variable terms). Returns the moved designs
+    ``(n, d)``, problem units."""
     X = np.array(starts, float)
     n, d = X.shape
     if n == 0:
@@ -396,10 +399,13 @@ def search_coordinates(models: Models, starts: np.ndarray, lower: np.ndarray, up
     utopia = lo - 0.1 * (hi - lo)                     # so that a start at the ideal point still has a ray
     weight = np.repeat((start.mean - utopia) / (hi - lo), grid + 1, axis=0)
 
+    kappa = np.repeat(np.where(np.arange(n) % 2 == 1, KAPPA, 0.0), grid + 1)[:, None]
+
     def merit(Y: np.ndarray) -> np.ndarray:
         p = models.predict(Y)
-        scaled = (p.mean - utopia) / (hi - lo) / np.maximum(weight, 1e-3)
-        risk = np.clip(p.g_mean, 0.0, None).sum(axis=1) + np.clip(p.p_fail - failure_limit, 0.0, None)
+        scaled = (p.mean - kappa * p.std - utopia) / (hi - lo) / np.maximum(weight, 1e-3)
+        risk = (np.clip(p.g_mean - kappa * p.g_std, 0.0, None).sum(axis=1)
+                + np.clip(p.p_fail - failure_limit, 0.0, None))
         return scaled.max(axis=1) + AUGMENTED * scaled.sum(axis=1) + 1e3 * risk
 
     steps = np.linspace(-1.0, 1.0, grid)
