@@ -20,6 +20,7 @@ population of 50, then batches of 10), the IGD of the archive's front against ZD
     python bench/bench_surrogate.py                                   # the whole suite, 11 seeds, 2 jobs
     python bench/bench_surrogate.py --cases zdt1 mw3 --seeds 3 --failures none
     python bench/bench_surrogate.py --cases mw1 mw2 --kernel additive       # the surrogate with the additive kernel
+    python bench/bench_surrogate.py --cases mw1 --kernel additive --coordinate-search
     python bench/bench_surrogate.py --report-only --json docs/figures/surrogate.json
 """
 
@@ -155,11 +156,17 @@ def main() -> int:
 
     parser.add_argument("--kernel", choices=KERNELS, default="product",
                         help="the surrogate's algorithm.surrogate.kernel (additive: runs named surrogate-additive-N)")
+    parser.add_argument("--coordinate-search", action="store_true",
+                        help="algorithm.surrogate.coordinate_search (runs named surrogate[-additive]-coordinate-N)")
     args = parser.parse_args()
     seeds = list(range(1, args.seeds + 1))
-    runs = {"plain": ("plain", METHODS["plain"]), "surrogate": ("surrogate", METHODS["surrogate"])}
-    if args.kernel == "additive":
-        runs["surrogate"] = ("surrogate-additive", {**METHODS["surrogate"], "surrogate": {"kernel": "additive"}})
+    settings = {"kernel": args.kernel} if args.kernel != "product" else {}
+    if args.coordinate_search:
+        settings["coordinate_search"] = True
+    name = "-".join(["surrogate", *(["additive"] if args.kernel == "additive" else []),
+                     *(["coordinate"] if args.coordinate_search else [])])
+    surrogate = {**METHODS["surrogate"], "surrogate": settings} if settings else METHODS["surrogate"]
+    runs = {"plain": ("plain", METHODS["plain"]), "surrogate": (name, surrogate)}
     work = [(args.out / c / f / f"{name}-{s}", campaign(c, f, m, s, algorithm=algorithm))
             for f in args.failures for m, (name, algorithm) in runs.items() for c in args.cases for s in seeds]
     name, algorithm = runs["surrogate"]
