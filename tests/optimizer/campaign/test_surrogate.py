@@ -271,6 +271,21 @@ def test_the_additive_kernel_is_fitted_and_stored_with_its_term(tmp_path):
     assert len(theta["f1"]) == len(theta["f2"]) == 1 + 8 + 2 * 8 + 1
 
 
+def test_the_coordinate_search_adds_its_designs_to_the_pool(tmp_path):
+    """With ``coordinate_search`` each generation's pool holds the batch's worth of moved designs too, and the
+    run still sends full batches."""
+    drawn = {}
+    for flag in ("false", "true"):
+        config = campaign(tmp_path, ZDT1, "algorithm.method=surrogate", "algorithm.generations=3",
+                          f"algorithm.surrogate={{pool: 5, training: 40, coordinate_search: {flag}}}")
+        run_campaign(config, tmp_path / flag)
+        with Store(tmp_path / flag / STORE_NAME, readonly=True) as s:
+            searches = [g.search for g in s.generations()[1:]]
+        assert all(x["batch"] == 4 for x in searches)
+        drawn[flag] = [x["drawn"] for x in searches]
+    assert [t - f for t, f in zip(drawn["true"], drawn["false"], strict=True)] == [4, 4]
+
+
 def test_plain_generations_record_their_draws(tmp_path):
     run_campaign(campaign(tmp_path, ZDT1, "algorithm.generations=2"), tmp_path / "run")
     with Store(tmp_path / "run" / STORE_NAME, readonly=True) as s:
