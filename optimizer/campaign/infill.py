@@ -12,7 +12,9 @@ The rule (the reasoning and its evidence: ``docs/decisions/0017-surrogate-infill
    predicted probability of failure as a constraint ``p_fail ≤ failure_limit``. The full geometric check
    (:meth:`~CampaignProblem.check`: the machined profile, self-crossing, pieces; 20 ms in tool-path mode)
    runs on each design the choice below reaches, before it is taken: an infeasible design is never sent,
-   and the pool costs a few dozen full checks instead of a thousand.
+   and the pool costs a few dozen full checks instead of a thousand. With ``coordinate_search`` the
+   inner search's best ``batch`` designs also join the pool after a coordinate search on the models
+   (:func:`search_coordinates`).
 2. **Boundary** (a quarter of the batch, :data:`BOUNDARY`; only in a run with CFD constraints, a feasible
    front and evaluated designs that violate a constraint yet would improve the front): candidates are the
    midpoints between each front design and the nearest such violating design (:func:`boundary_midpoints`),
@@ -398,7 +400,6 @@ def search_coordinates(models: Models, starts: np.ndarray, lower: np.ndarray, up
     lo, hi = _normalisation(front, start.mean, reference)
     utopia = lo - 0.1 * (hi - lo)                     # so that a start at the ideal point still has a ray
     weight = np.repeat((start.mean - utopia) / (hi - lo), grid + 1, axis=0)
-
     kappa = np.repeat(np.where(np.arange(n) % 2 == 1, KAPPA, 0.0), grid + 1)[:, None]
 
     def merit(Y: np.ndarray) -> np.ndarray:
@@ -410,11 +411,15 @@ def search_coordinates(models: Models, starts: np.ndarray, lower: np.ndarray, up
 
     steps = np.linspace(-1.0, 1.0, grid)
     for sweep in range(sweeps):
-        width = (2.0 / (grid - 1)) ** sweep          # of the unit range: 1, one step, one step of that...
+        # half-width of the grid, in units of the variable's range: the whole range, then one step of the
+        # previous grid on either side of the value kept
+        half = 0.5 if sweep == 0 else (2.0 / (grid - 1)) ** sweep
         for j in rng.permutation(d):
             span = upper[j] - lower[j]
+            if span <= 0.0:
+                continue
             centre = np.full(n, 0.5) if sweep == 0 else (X[:, j] - lower[j]) / span
-            unit = np.clip(centre[:, None] + 0.5 * width * steps[None, :] * (1 if sweep == 0 else 2), 0.0, 1.0)
+            unit = np.clip(centre[:, None] + half * steps[None, :], 0.0, 1.0)
             trial = np.repeat(X[:, None, :], grid + 1, axis=1)      # column 0 keeps the current value (ties)
             trial[:, 1:, j] = lower[j] + span * unit
             best = np.argmin(merit(trial.reshape(-1, d)).reshape(n, grid + 1), axis=1)
