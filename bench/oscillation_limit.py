@@ -16,6 +16,8 @@ import argparse
 import sys
 from pathlib import Path
 
+import numpy as np
+
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
@@ -24,7 +26,7 @@ def worst_amplitudes(directory: Path) -> tuple[list[float], float, int]:
     """Worst relative amplitudes of the run's oscillating designs, the run's own limit, and its CFD count."""
     import yaml
 
-    from optimizer.campaign.config import MONITOR_OF
+    from optimizer.campaign.problem import worst_amplitude
     from optimizer.campaign.status import EvaluationStatus
     from optimizer.campaign.store import STORE_NAME, Store
 
@@ -33,16 +35,8 @@ def worst_amplitudes(directory: Path) -> tuple[list[float], float, int]:
         rows = [r for r in store.evaluations() if r.status != EvaluationStatus.INFEASIBLE]
     figures = [o["figure"] for o in config.get("objectives", [])]
     figures += [c["figure"] for c in config.get("constraints", []) or []]
-    monitors = {MONITOR_OF[f] for f in figures if f in MONITOR_OF}
-    worst = []
-    for row in rows:
-        if str(row.convergence) != "oscillating":
-            continue
-        infos = [(row.monitors or {}).get(m) or {} for m in monitors]
-        ratios = [i["amplitude"] / abs(i["mean"]) for i in infos
-                  if i.get("amplitude") is not None and i.get("mean")]
-        if ratios:
-            worst.append(max(ratios))
+    worst = [worst_amplitude(row.monitors or {}, figures)[0] for row in rows if str(row.convergence) == "oscillating"]
+    worst = [w for w in worst if not np.isnan(w)]
     return sorted(worst), float(config.get("convergence", {}).get("max_amplitude", 0.01)), len(rows)
 
 
@@ -52,6 +46,11 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--limits", nargs="+", type=float, default=[0.01, 0.02, 0.04, 0.06, 0.1, 0.2],
                         help="relative amplitudes to count against (default: %(default)s)")
     args = parser.parse_args(argv)
+    from optimizer.campaign.store import STORE_NAME, stored
+
+    missing = [str(d) for d in args.runs if not stored(d / STORE_NAME)]
+    if missing:
+        parser.error(f"no campaign store in {', '.join(missing)}")
     print("| run | CFD evaluations | oscillating | own limit: accepted | "
           + " | ".join(f"≤ {limit:.0%}" for limit in args.limits) + " |")
     print("|---" * (4 + len(args.limits)) + "|")

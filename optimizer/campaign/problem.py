@@ -229,20 +229,29 @@ class CampaignProblem:
             return "oscillating results are rejected (convergence.oscillating = fail)"
         if policy.oscillating == "accept_mean":
             return ""
-        monitors = record.monitors
-        worst, name = 0.0, ""
-        for m in {MONITOR_OF[f] for f in figures if f in MONITOR_OF}:
-            info = monitors.get(m) or {}
-            mean, amplitude = info.get("mean"), info.get("amplitude")
-            if mean is None or amplitude is None:
-                return f"monitor {m} has no window figures"
-            rel = amplitude / abs(mean) if mean != 0 else math.inf
-            if rel > worst:
-                worst, name = rel, m
+        worst, name = worst_amplitude(record.monitors, figures)
+        if math.isnan(worst):
+            return f"monitor {name} has no window figures"
         if worst > policy.max_amplitude:
             return (f"amplitude of {name} is {worst:.2%} of its mean > convergence.max_amplitude "
                     f"{policy.max_amplitude:.2%}")
         return ""
+
+
+def worst_amplitude(monitors: Mapping[str, Any], figures: list[str]) -> tuple[float, str]:
+    """The largest oscillation amplitude relative to its window mean over the monitors of ``figures``
+    (what ``convergence.max_amplitude`` limits) and that monitor; ``(nan, monitor)`` where a monitor has no
+    window figures, ``(0, '')`` where no figure has a monitor."""
+    worst, name = 0.0, ""
+    for m in sorted({MONITOR_OF[f] for f in figures if f in MONITOR_OF}):
+        info = monitors.get(m) or {}
+        mean, amplitude = info.get("mean"), info.get("amplitude")
+        if mean is None or amplitude is None:
+            return math.nan, m
+        rel = amplitude / abs(mean) if mean != 0 else math.inf
+        if rel > worst:
+            worst, name = rel, m
+    return worst, name
 
 
 def judge(record: EvaluationRecord | Mapping[str, Any], figures: list[str]) -> tuple[ConvergenceClass, str]:
