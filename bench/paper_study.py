@@ -15,6 +15,8 @@ and the command that draws the report of all of them.
     python bench/paper_study.py --level medium --cases design_g1 --set convergence.max_amplitude=0.01
     python bench/paper_study.py --level coarse --report-only
     python bench/paper_study.py --level coarse --report-only --out /scratch/paper --archive runs/examples/paper
+    python bench/paper_study.py --level medium --report-only --out /scratch/paper --archive runs/examples/paper \
+        --unfinished                                           # carry unfinished runs to another machine
 """
 
 from __future__ import annotations
@@ -96,26 +98,35 @@ def _time(text: str) -> datetime:
     return datetime.fromisoformat(text)
 
 
-def archive(out: Path, level: str, cases, dest: Path) -> None:
+def archive(out: Path, level: str, cases, dest: Path, unfinished: bool = False) -> None:
     """Copy the finished runs of ``out/level`` to ``dest/level`` as the repository keeps them: each store
     packed (a consistent snapshot; its message names the copy, not the original), its ``config.yaml``, and
     only the fields files the report of all of them draws (:func:`optimizer.report.html.fields_shown`), so
-    that ``millfoil report`` of the copies draws the same page. A run already there is replaced. A run that
-    is not finished is named and left out: the report would take its partial front for the case's."""
+    that ``millfoil report`` of the copies draws the same page. A run already there is replaced.
+
+    A run that is not finished is named and left out (the report would take its partial front for the
+    case's), unless ``unfinished``: then it is copied too, with the fields of every design on its current
+    front (a design off the front now never returns to it, so the finished run's report will find the
+    fields it draws), and the study continues from the copy on another machine: copy ``dest/level`` to
+    ``out/level`` and run the same command."""
     import shutil
     import sqlite3
 
     from optimizer.campaign.fields import fields_path
     from optimizer.campaign.packed import pack
-    from optimizer.campaign.store import STORE_NAME, locate, stored
+    from optimizer.campaign.store import STORE_NAME, Store, locate, stored
     from optimizer.report.html import fields_shown
     from optimizer.report.run import load_run
 
     runs = [load_run(out / level / case) for case in cases if stored(out / level / case / STORE_NAME)]
     for run in (r for r in runs if r.campaign.state != "finished"):
-        print(f"{run.directory}: not archived, the campaign is {run.campaign.state}", file=sys.stderr)
-    runs = [r for r in runs if r.campaign.state == "finished"]
+        kept = "archived with its current front's fields" if unfinished else "not archived"
+        print(f"{run.directory}: {kept}, the campaign is {run.campaign.state}", file=sys.stderr)
+    runs = [r for r in runs if unfinished or r.campaign.state == "finished"]
     shown = fields_shown(runs)
+    for run in (r for r in runs if r.campaign.state != "finished"):
+        with Store(run.directory / STORE_NAME, readonly=True) as s:
+            shown.setdefault(run.directory, set()).update(row.key for row in s.front())
     for run in runs:
         target = dest / level / run.directory.name
         shutil.rmtree(target, ignore_errors=True)
@@ -170,13 +181,16 @@ def main() -> int:
     parser.add_argument("--archive", type=Path, metavar="DEST",
                         help="then copy the runs to DEST/LEVEL as the repository keeps them (packed stores, the "
                         "fields the report draws): e.g. runs/examples/paper")
+    parser.add_argument("--unfinished", action="store_true",
+                        help="with --archive, copy the runs that are not finished too, with their current front's "
+                        "fields, to continue the study on another machine: copy DEST/LEVEL to OUT/LEVEL there")
     args = parser.parse_args()
     if not args.report_only:
         for case in args.cases:
             run_case(case, args.level, args.out / args.level / case, args.workers, args.settings)
     summary(args.out, args.level, args.cases)
     if args.archive:
-        archive(args.out.resolve(), args.level, args.cases, args.archive.resolve())
+        archive(args.out.resolve(), args.level, args.cases, args.archive.resolve(), args.unfinished)
     return 0
 
 

@@ -1,0 +1,82 @@
+"""The paper study's archive (``bench/paper_study.py --archive``): finished runs only, unless asked to carry
+an unfinished one to another machine, which then keeps the fields of its whole current front and continues
+from the copy."""
+
+from __future__ import annotations
+
+import importlib.util
+import shutil
+from pathlib import Path
+
+import pytest
+
+from optimizer.campaign.config import load_campaign
+from optimizer.campaign.driver import resume_campaign, run_campaign
+from optimizer.campaign.fields import fields_path
+from optimizer.campaign.packed import packed_path
+from optimizer.campaign.record import evaluate_payload
+from optimizer.campaign.store import STORE_NAME, Store
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+@pytest.fixture(scope="module")
+def paper_study():
+    spec = importlib.util.spec_from_file_location("paper_study", ROOT / "bench" / "paper_study.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+@pytest.fixture
+def interrupted(tmp_path):
+    """``OUT/medium/design_g1``: a campaign of three generations of 6 interrupted (Ctrl-C) in its third, a
+    fields file for every design (an analytic problem stands in for the blade: the archive reads only the
+    store)."""
+    config = tmp_path / "c.yaml"
+    config.write_text("analytic: {problem: zdt1, variables: 4}\nalgorithm: {population: 6, generations: 3, "
+                      "seed: 3}\nexecution: {backend: inline}\n")
+    run = tmp_path / "out" / "medium" / "design_g1"
+    calls = []
+
+    def stopped_in_the_third_generation(payload):
+        calls.append(payload)
+        if len(calls) == 15:
+            raise KeyboardInterrupt
+        return evaluate_payload(payload)
+
+    with pytest.raises(KeyboardInterrupt):
+        run_campaign(load_campaign(config), run, fn=stopped_in_the_third_generation)
+    with Store(run / STORE_NAME, readonly=True) as store:
+        assert store.campaign().state == "interrupted"
+        keys = [r.key for r in store.evaluations()]
+        front = {r.key for r in store.front()}
+    for key in keys:
+        fields_path(run, key).parent.mkdir(exist_ok=True)
+        fields_path(run, key).write_bytes(b"fields")
+    assert 0 < len(front) < len(keys)
+    return run, front
+
+
+def test_an_unfinished_run_is_left_out_unless_asked_for(paper_study, interrupted, tmp_path, capsys):
+    run, _ = interrupted
+    paper_study.archive(run.parents[1], "medium", ["design_g1"], tmp_path / "kept")
+    assert not (tmp_path / "kept" / "medium" / "design_g1").exists()
+    assert "not archived, the campaign is interrupted" in capsys.readouterr().err
+
+
+def test_an_unfinished_run_carries_its_front_fields_and_continues_from_the_copy(paper_study, interrupted, tmp_path):
+    run, front = interrupted
+    paper_study.archive(run.parents[1], "medium", ["design_g1"], tmp_path / "kept", unfinished=True)
+    kept = tmp_path / "kept" / "medium" / "design_g1"
+    assert packed_path(kept / STORE_NAME).exists() and not (kept / STORE_NAME).exists()
+    assert {p.stem for p in (kept / "fields").iterdir()} == front
+
+    again = tmp_path / "elsewhere" / "medium" / "design_g1"
+    shutil.copytree(kept, again)
+    with Store(run / STORE_NAME, readonly=True) as store:
+        before = {r.key for r in store.evaluations()}
+    assert resume_campaign(again).state == "finished"
+    with Store(again / STORE_NAME, readonly=True) as store:
+        rows = list(store.evaluations())
+    assert before < {r.key for r in rows} and len(rows) == 18          # the rest of the third generation only
