@@ -52,7 +52,12 @@ from solver.convergence import ConvergenceClass
 #: Record status of an evaluation whose solve ran (its figures exist); the driver's assessment turns it into
 #: an :class:`EvaluationStatus` under the convergence policy. Every other record status is one already.
 SOLVED = "solved"
-_pinned = False
+#: glibc's malloc in a worker process (``mallopt``): allocations up to ``MMAP_THRESHOLD`` bytes come from the
+#: heap, and free memory at its top is returned to the kernel only beyond ``TRIM_THRESHOLD`` bytes. These
+#: are the largest values glibc's own dynamic thresholds reach on 64-bit (:func:`keep_freed_memory`).
+MMAP_THRESHOLD, TRIM_THRESHOLD = 32 * 2**20, 64 * 2**20
+_M_TRIM_THRESHOLD, _M_MMAP_THRESHOLD = -1, -3       # mallopt's parameter numbers (malloc.h)
+_prepared = False
 
 
 @dataclass(frozen=True)
@@ -126,7 +131,7 @@ class _DeadlinePassed(Exception):
 
 def evaluate_payload(payload: dict) -> EvaluationRecord:
     """Run one task payload (see the module docstring) and return its record."""
-    _pin_threads()
+    _prepare_process()
     kind = payload.get("kind")
     handler = HANDLERS.get(kind)
     if handler is None:
@@ -134,9 +139,10 @@ def evaluate_payload(payload: dict) -> EvaluationRecord:
     return handler(payload)
 
 
-def _pin_threads() -> None:
-    global _pinned
-    if _pinned:
+def _prepare_process() -> None:
+    """Once per process: BLAS and OpenMP on one thread, freed memory kept for reuse."""
+    global _prepared
+    if _prepared:
         return
     try:
         from threadpoolctl import threadpool_limits
@@ -144,7 +150,30 @@ def _pin_threads() -> None:
         threadpool_limits(1)
     except ImportError:            # the runner's worker environment pins them too (OMP_NUM_THREADS=1...)
         pass
-    _pinned = True
+    keep_freed_memory()
+    _prepared = True
+
+
+def keep_freed_memory() -> bool:
+    """Make glibc keep freed memory for the next allocation instead of returning it to the kernel at once;
+    False where there is no glibc ``mallopt`` (nothing is changed).
+
+    A solve allocates and frees cell- and face-sized arrays every iteration (about 130 kB each at the medium
+    mesh). dask's nanny starts every worker with ``MALLOC_TRIM_THRESHOLD_=65536`` (its default
+    ``distributed.nanny.pre-spawn-environ``), which also freezes glibc's dynamic thresholds: every such array
+    is then mapped from the kernel, faulted in page by page, zeroed and unmapped again, and a worker spent
+    about half its time in the kernel, each medium evaluation taking twice as long as on its own
+    (``python bench/bench_worker_memory.py``). Set at run time, these values hold however the worker was
+    started (local cluster, SLURM, PBS)."""
+    import ctypes
+    import ctypes.util
+
+    try:
+        mallopt = ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6").mallopt
+    except (OSError, AttributeError):
+        return False
+    mallopt.argtypes, mallopt.restype = (ctypes.c_int, ctypes.c_int), ctypes.c_int
+    return bool(mallopt(_M_MMAP_THRESHOLD, MMAP_THRESHOLD)) and bool(mallopt(_M_TRIM_THRESHOLD, TRIM_THRESHOLD))
 
 
 # ------------------------------------------------------------------------------------------- blade

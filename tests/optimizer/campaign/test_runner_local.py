@@ -27,6 +27,26 @@ def worker_environment(payload: dict) -> dict:
             "blas_threads": [pool["num_threads"] for pool in threadpool_info()]}
 
 
+def page_faults_of_reuse(payload: dict) -> dict:
+    """Minor page faults of 20 arrays of 1 MB allocated, written and freed in turn, before and after the
+    worker function's per-process preparation (an evaluation of an unknown kind does just that)."""
+    import resource
+
+    import numpy as np
+
+    from optimizer.campaign.record import evaluate_payload
+
+    def faults() -> int:
+        before = resource.getrusage(resource.RUSAGE_SELF).ru_minflt
+        for _ in range(20):
+            np.ones(2**17)
+        return resource.getrusage(resource.RUSAGE_SELF).ru_minflt - before
+
+    unprepared = faults()
+    evaluate_payload({"kind": "none"})
+    return {"trim": os.environ.get("MALLOC_TRIM_THRESHOLD_"), "before": unprepared, "after": faults()}
+
+
 def sleep_for(payload: dict) -> dict:
     time.sleep(payload["s"])
     return {"slept": payload["s"], "pid": os.getpid()}
@@ -69,6 +89,15 @@ def test_two_single_threaded_workers_with_pinned_blas(runner):
         assert r.record["env"] == PINNED_THREADS_ENV
         assert set(r.record["blas_threads"]) <= {1}
         assert r.record["pid"] != os.getpid()
+
+
+def test_the_worker_function_keeps_freed_memory_for_reuse(runner):
+    """dask starts the workers with MALLOC_TRIM_THRESHOLD_=65536: every freed array goes back to the kernel
+    and is faulted in again (256 pages per MB) until the worker function changes that."""
+    (r,) = runner.run(page_faults_of_reuse, [Task("m", {}, 0)])
+    assert r.status == "done", r.message
+    assert r.record["trim"] == "65536" and r.record["before"] > 20 * 200     # every array faulted in
+    assert r.record["after"] < 2 * 257                                        # the first one at most
 
 
 def test_as_completed_and_every_worker_used(runner):
