@@ -215,14 +215,20 @@ def _study_table7(runs: list[Run], pts, files: Files) -> str:
              "</span></td>") + f"<td class=\"paper\">{t.paper_value(q):.2f}</td><td>{_pct(t.relative(q))}</td>"
             for _, q, _ in TABLE7_COLUMNS)
         body.append(f"<tr><td class=\"l\">{e(t.run.name)}</td><td class=\"l\">{e(case_name(t.case))}</td>"
-                    f"<td class=\"l\">{e(t.level)}</td><td>{t.evaluations}</td>{cells}</tr>")
+                    f"<td class=\"l\">{e(t.level)}</td><td>{t.evaluations}{_unfinished(t.run)}</td>{cells}</tr>")
     files["table7.csv"] = partial(_study_table7_csv, rows)
     return ("<h3>Table 7 side by side</h3>\n<p class=\"note\">Ours (extremes over the feasible accepted designs, "
             "design number in brackets), the paper's Table 7 value beside it and Δ = (ours − paper) / paper; the "
-            "mesh level and the CFD evaluations each run spent (the paper: about 5 000 per case, medium mesh). "
-            "Table: <a href=\"table7.csv\">table7.csv</a>.</p>\n<table><tr><th class=\"l\">run</th>"
+            "mesh level and the CFD evaluations each run spent (the paper: about 5 000 per case, medium mesh), with "
+            "the state of a run that has not finished. Table: <a href=\"table7.csv\">table7.csv</a>.</p>\n"
+            "<table><tr><th class=\"l\">run</th>"
             f"<th class=\"l\">case</th><th class=\"l\">mesh</th><th>CFD evaluations</th>{head}</tr>"
             f"{''.join(body)}</table>")
+
+
+def _unfinished(run: Run) -> str:
+    state = run.campaign.state
+    return "" if state == "finished" else f" <span class=\"note\">({e(state)})</span>"
 
 
 def _study_table7_csv(rows, path: Path) -> None:
@@ -308,8 +314,10 @@ def _study_claims(runs: list[Run], pts, files: Files) -> str:
             f"{100 * LIFT_DIFFERENCE:.0f} % in max |F_Y|; (b) when min C_max of the tool path exceeds the design's in "
             f"every such class; (c) when the C2 lift drop lies within {100 * low:.0f}–{100 * high:.0f} % for both "
             "approaches. A test that changes its answer within the oscillation amplitudes of the designs compared "
-            "cannot tell; so does a claim without the runs it needs. The paper's column applies the same test to its "
-            "own Table 7. Table: <a href=\"claims.csv\">claims.csv</a>.</p>\n<table><tr><th class=\"l\">claim</th>"
+            "cannot tell; so does a claim without the runs it needs. Only finished runs are tested: a run still "
+            "going, or stopped before its end, is in Table 7 with its state. The paper's column applies the same "
+            "test to its own Table 7. Table: <a href=\"claims.csv\">claims.csv</a>.</p>\n"
+            "<table><tr><th class=\"l\">claim</th>"
             "<th class=\"l\">mesh</th><th class=\"l\">ours</th><th class=\"l paper\">paper, Table 7</th>"
             f"<th class=\"l\">verdict</th><th class=\"l\">designs used</th></tr>{rows}</table>")
 

@@ -431,8 +431,11 @@ def _join(parts: list[str]) -> str:
 
 
 def claims(runs: list[Run], pts: list[list[Point]]) -> list[Claim]:
-    """The three claims at each mesh level that holds paper runs (:func:`study_levels`)."""
+    """The three claims at each mesh level that holds finished paper runs (:func:`study_levels`). A run still
+    going, or stopped before its end, has a partial front, which would test the claim on an unfinished
+    search: it is left out, as if it had not been given."""
+    finished = [(r, p) for r, p in zip(runs, pts, strict=True) if r.campaign.state == "finished"]
     out = []
-    for level in study_levels(runs, pts):
+    for level in study_levels([r for r, _ in finished], [p for _, p in finished]):
         out += [claim_lift_difference(level), claim_cmax_toolpath(level), claim_c2_lift(level)]
     return out
