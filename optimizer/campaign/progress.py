@@ -154,10 +154,31 @@ def status_of(directory: str | Path) -> dict:
                                                      if k not in ("predicted", "theta", "scale")}}
                    for g in generations],
         "mean_evaluation_seconds": sum(seconds) / len(seconds) if seconds else None,
+        "remaining": None if row.state == "finished" else remaining(config.algorithm.evaluations, rows, generations),
         "last_stored": max((r.finished for r in rows), default=None),
         "problem": (config.analytic.problem if config.analytic
                     else f"{config.blade.mode.value} {config.blade.continuity.value}"),
     }
+
+
+#: Stored evaluations whose pace :func:`remaining` reads, the most recent ones.
+PACE_WINDOW = 100
+
+
+def remaining(planned: int, rows: Sequence[EvaluationRow], generations) -> dict:
+    """``{"evaluations": n, "seconds": s}``: the evaluations the campaign has still to run (``planned``: the
+    configuration's most, less those stored and the generations' cache hits) and the wall seconds they take
+    at the run's recent pace: the mean gap between the last :data:`PACE_WINDOW` stored evaluations, without
+    the gaps over ten times their median (a stop before a resume). ``seconds`` is None before ten gaps."""
+    import numpy as np
+
+    left = max(0, planned - len(rows) - sum(g.cache_hits for g in generations))
+    times = sorted(_dt.datetime.fromisoformat(r.finished).timestamp() for r in rows if r.finished)
+    gaps = np.diff(times[-PACE_WINDOW:])
+    if len(gaps) < 10:
+        return {"evaluations": left, "seconds": None}
+    gaps = gaps[gaps <= 10.0 * np.median(gaps)]
+    return {"evaluations": left, "seconds": left * float(gaps.mean())}
 
 
 def format_status(s: dict) -> str:
@@ -183,6 +204,10 @@ def format_status(s: dict) -> str:
         + ("-" if not s["feasible_share"] or s["feasible_share"][-1] is None else f"{s['feasible_share'][-1]:.0%}")
         + f"; cache hits {s['cache_hits']}; mean evaluation {duration(s['mean_evaluation_seconds'])}",
     ]
+    left = s.get("remaining")
+    if left and left["evaluations"]:
+        lines.append(f"  remaining: about {left['evaluations']} evaluations"
+                     + (f", {duration(left['seconds'])} at the recent pace" if left["seconds"] is not None else ""))
     searched = [x for x in s.get("search", []) if x.get("drawn") is not None]
     if searched:
         last = searched[-1]

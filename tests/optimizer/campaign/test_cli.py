@@ -9,7 +9,7 @@ import json
 import pytest
 
 from optimizer.campaign.driver import GenerationProgress
-from optimizer.campaign.progress import ProgressDisplay, progress_line
+from optimizer.campaign.progress import ProgressDisplay, format_status, progress_line, remaining, status_of
 from optimizer.cli import main
 
 ZDT1 = "analytic: {problem: zdt1, variables: 4}\nalgorithm: {population: 8, generations: 3, seed: 1}\n" \
@@ -85,6 +85,27 @@ def test_run_status_resume(tmp_path, zdt1, capsys):
     assert "millfoil resume" in capsys.readouterr().err
     assert main(["resume", str(run)]) == 0                              # finished: nothing to do
     assert "non-dominated designs" in capsys.readouterr().out
+
+
+def test_remaining_evaluations_at_the_recent_pace_without_the_stops():
+    """40 evaluations stored 10 s apart, then a night's stop before the resume: 60 of 100 left, at 10 s."""
+    from types import SimpleNamespace
+
+    times = [f"2026-01-01T10:{10 * i // 60:02d}:{10 * i % 60:02d}+00:00" for i in range(20)]
+    times += [f"2026-01-02T08:{10 * i // 60:02d}:{10 * i % 60:02d}+00:00" for i in range(20)]
+    rows = [SimpleNamespace(finished=t) for t in times]
+    left = remaining(100, rows, [SimpleNamespace(cache_hits=0)])
+    assert left["evaluations"] == 60 and left["seconds"] == pytest.approx(600.0)
+    assert remaining(100, rows[:5], [])["seconds"] is None          # too few to tell a pace
+
+
+def test_status_says_what_is_left_until_the_campaign_finishes(tmp_path, zdt1):
+    run = tmp_path / "run"
+    assert main(["run", str(zdt1), "--out", str(run)]) == 0
+    status = status_of(run)
+    assert status["remaining"] is None and "remaining" not in format_status(status)
+    status = {**status, "state": "interrupted", "remaining": {"evaluations": 60, "seconds": 600.0}}
+    assert "remaining: about 60 evaluations, 10m00s at the recent pace" in format_status(status)
 
 
 def test_resume_errors(tmp_path, capsys):
