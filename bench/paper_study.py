@@ -98,35 +98,75 @@ def _time(text: str) -> datetime:
     return datetime.fromisoformat(text)
 
 
+def restore_fields(directory: Path) -> int:
+    """Solve again every design on the front of the run in ``directory`` whose fields file is missing (a run
+    continued from a copy that did not carry them), with the run's own configuration, worker function and
+    backend, which write the file. A solve must give the stored figures again (one machine's solver is
+    deterministic); where it does not, the design is named and its new file removed. Returns the files
+    written."""
+    import numpy as np
+
+    from optimizer.campaign.driver import saved_config
+    from optimizer.campaign.fields import fields_path, with_fields
+    from optimizer.campaign.problem import make_problem
+    from optimizer.campaign.record import EvaluationRecord, evaluate_payload
+    from optimizer.campaign.runner import Task, make_runner
+    from optimizer.campaign.store import STORE_NAME, Store
+
+    with Store(directory / STORE_NAME, readonly=True) as s:
+        config = saved_config(s.campaign().config)
+        missing = {r.key: r for r in s.front() if not fields_path(directory, r.key).is_file()}
+    if not missing:
+        return 0
+    print(f"{directory}: solving {len(missing)} front designs again for their fields", file=sys.stderr)
+    problem = make_problem(config)
+    tasks = [Task(k, with_fields(problem.payload(np.asarray(r.x, float)), directory, k), 0) for k, r in missing.items()]
+    written = 0
+    with make_runner(config.execution) as runner:
+        for result in runner.run(evaluate_payload, tasks):
+            stored_figures = missing[result.key].figures or {}
+            record = EvaluationRecord.of(result.record) if result.record is not None else None
+            same = record is not None and all(
+                v is None or (record.figures.get(k) is not None and np.isclose(record.figures[k], v, rtol=1e-9))
+                for k, v in stored_figures.items() if isinstance(v, float))
+            if same and fields_path(directory, result.key).is_file():
+                written += 1
+            else:
+                fields_path(directory, result.key).unlink(missing_ok=True)
+                print(f"{directory}: design {result.key[:10]} solved again does not give its stored figures; "
+                      "its fields are not kept", file=sys.stderr)
+    return written
+
+
 def archive(out: Path, level: str, cases, dest: Path, unfinished: bool = False) -> None:
     """Copy the finished runs of ``out/level`` to ``dest/level`` as the repository keeps them: each store
     packed (a consistent snapshot; its message names the copy, not the original), its ``config.yaml``, and
     only the fields files the report of all of them draws (:func:`optimizer.report.html.fields_shown`), so
-    that ``millfoil report`` of the copies draws the same page. A run already there is replaced.
+    that ``millfoil report`` of the copies draws the same page. A run already there is replaced. The designs
+    of a finished run's front whose fields files are missing are solved again first (:func:`restore_fields`).
 
     A run that is not finished is named and left out (the report would take its partial front for the
-    case's), unless ``unfinished``: then it is copied too, with the fields of every design on its current
-    front (a design off the front now never returns to it, so the finished run's report will find the
-    fields it draws), and the study continues from the copy on another machine: copy ``dest/level`` to
-    ``out/level`` and run the same command."""
+    case's), unless ``unfinished``: then its store and configuration are copied, without fields (a front's
+    worth is megabytes), and the study continues from the copy on another machine: copy ``dest/level`` to
+    ``out/level`` and run the same command; the finished run's archive restores the fields its report
+    draws."""
     import shutil
     import sqlite3
 
     from optimizer.campaign.fields import fields_path
     from optimizer.campaign.packed import pack
-    from optimizer.campaign.store import STORE_NAME, Store, locate, stored
+    from optimizer.campaign.store import STORE_NAME, locate, stored
     from optimizer.report.html import fields_shown
     from optimizer.report.run import load_run
 
     runs = [load_run(out / level / case) for case in cases if stored(out / level / case / STORE_NAME)]
     for run in (r for r in runs if r.campaign.state != "finished"):
-        kept = "archived with its current front's fields" if unfinished else "not archived"
+        kept = "archived without fields" if unfinished else "not archived"
         print(f"{run.directory}: {kept}, the campaign is {run.campaign.state}", file=sys.stderr)
+    for run in (r for r in runs if r.campaign.state == "finished"):
+        restore_fields(run.directory)
+    shown = fields_shown([r for r in runs if r.campaign.state == "finished"])
     runs = [r for r in runs if unfinished or r.campaign.state == "finished"]
-    shown = fields_shown(runs)
-    for run in (r for r in runs if r.campaign.state != "finished"):
-        with Store(run.directory / STORE_NAME, readonly=True) as s:
-            shown.setdefault(run.directory, set()).update(row.key for row in s.front())
     for run in runs:
         target = dest / level / run.directory.name
         shutil.rmtree(target, ignore_errors=True)
@@ -182,8 +222,8 @@ def main() -> int:
                         help="then copy the runs to DEST/LEVEL as the repository keeps them (packed stores, the "
                         "fields the report draws): e.g. runs/examples/paper")
     parser.add_argument("--unfinished", action="store_true",
-                        help="with --archive, copy the runs that are not finished too, with their current front's "
-                        "fields, to continue the study on another machine: copy DEST/LEVEL to OUT/LEVEL there")
+                        help="with --archive, copy the runs that are not finished too (their stores, without fields), "
+                        "to continue the study on another machine: copy DEST/LEVEL to OUT/LEVEL there")
     args = parser.parse_args()
     if not args.report_only:
         for case in args.cases:

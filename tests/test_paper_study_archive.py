@@ -1,6 +1,6 @@
 """The paper study's archive (``bench/paper_study.py --archive``): finished runs only, unless asked to carry
-an unfinished one to another machine, which then keeps the fields of its whole current front and continues
-from the copy."""
+an unfinished one to another machine (its store, without fields), which continues from the copy; the
+fields a finished run lacks are solved again."""
 
 from __future__ import annotations
 
@@ -8,6 +8,7 @@ import importlib.util
 import shutil
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from optimizer.campaign.config import load_campaign
@@ -65,12 +66,12 @@ def test_an_unfinished_run_is_left_out_unless_asked_for(paper_study, interrupted
     assert "not archived, the campaign is interrupted" in capsys.readouterr().err
 
 
-def test_an_unfinished_run_carries_its_front_fields_and_continues_from_the_copy(paper_study, interrupted, tmp_path):
-    run, front = interrupted
+def test_an_unfinished_run_is_copied_without_fields_and_continues_from_the_copy(paper_study, interrupted, tmp_path):
+    run, _ = interrupted
     paper_study.archive(run.parents[1], "medium", ["design_g1"], tmp_path / "kept", unfinished=True)
     kept = tmp_path / "kept" / "medium" / "design_g1"
     assert packed_path(kept / STORE_NAME).exists() and not (kept / STORE_NAME).exists()
-    assert {p.stem for p in (kept / "fields").iterdir()} == front
+    assert not (kept / "fields").exists()
 
     again = tmp_path / "elsewhere" / "medium" / "design_g1"
     shutil.copytree(kept, again)
@@ -80,3 +81,27 @@ def test_an_unfinished_run_carries_its_front_fields_and_continues_from_the_copy(
     with Store(again / STORE_NAME, readonly=True) as store:
         rows = list(store.evaluations())
     assert before < {r.key for r in rows} and len(rows) == 18          # the rest of the third generation only
+
+
+@pytest.mark.slow
+def test_a_finished_run_missing_front_fields_gets_them_solved_again(paper_study, tmp_path):
+    """A run continued from a copy without fields: the archive solves its front designs again, and the files
+    are those the first solves wrote (the solver is deterministic)."""
+    run = tmp_path / "coarse" / "design_g1"
+    config = load_campaign(ROOT / "configs" / "paper" / "design_g1.yaml",
+                           ["mesh.level=coarse", "algorithm.population=3", "algorithm.generations=1",
+                            "execution.backend=inline"])
+    run_campaign(config, run)
+    with Store(run / STORE_NAME, readonly=True) as store:
+        front = [r.key for r in store.front()]
+    originals = {k: dict(np.load(fields_path(run, k))) for k in front}
+    for k in front[:2]:
+        fields_path(run, k).unlink()
+    assert paper_study.restore_fields(run) == min(2, len(front))
+    for k in front:
+        again = np.load(fields_path(run, k))
+        assert all(np.array_equal(again[name], value) for name, value in originals[k].items()
+                   if value.dtype.kind != "f")
+        assert all(np.array_equal(again[name], value, equal_nan=True) for name, value in originals[k].items()
+                   if value.dtype.kind == "f")
+    assert paper_study.restore_fields(run) == 0                     # nothing missing: nothing solved
