@@ -1,4 +1,7 @@
-"""The paper study's archive (``bench/paper_study.py --archive``): finished runs only, unless asked to carry
+"""The paper study's script (``bench/paper_study.py``).
+
+Cost figures: wall hours count the time evaluations ran and the driver's surrogate step, never the hours a
+stopped study waited for its ``resume``. Archive (``--archive``): finished runs only, unless asked to carry
 an unfinished one to another machine (its store, without fields), which continues from the copy; the
 fields a finished run lacks are solved again."""
 
@@ -7,6 +10,7 @@ from __future__ import annotations
 import importlib.util
 import shutil
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -29,6 +33,25 @@ def paper_study():
     return module
 
 
+# ---------------------------------------------------------------------------------------------- costs
+def _row(submitted: str, finished: str):
+    return SimpleNamespace(submitted=f"2026-01-01T{submitted}+00:00", finished=f"2026-01-01T{finished}+00:00")
+
+
+def test_overlapping_evaluations_count_once_and_a_stop_inside_a_generation_not_at_all(paper_study):
+    rows = [_row("10:00:00", "10:10:00"), _row("10:05:00", "10:20:00"),    # two workers: 10:00-10:20
+            _row("14:00:00", "14:30:00")]                                     # the same generation, resumed
+    generations = [SimpleNamespace(search={"seconds": {"fit": 60.0, "screen": 120.0}}),
+                   SimpleNamespace(search=None)]
+    assert paper_study.busy_hours(rows, generations) == pytest.approx((20 + 30 + 3) / 60)
+
+
+def test_rows_never_submitted_cost_nothing(paper_study):
+    rows = [SimpleNamespace(submitted=None, finished="2026-01-01T10:00:00+00:00")]
+    assert paper_study.busy_hours(rows, []) == 0.0
+
+
+# -------------------------------------------------------------------------------------------- archive
 @pytest.fixture
 def interrupted(tmp_path):
     """``OUT/medium/design_g1``: a campaign of three generations of 6 interrupted (Ctrl-C) in its third, a
