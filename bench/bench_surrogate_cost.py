@@ -10,8 +10,9 @@ One surrogate generation is then asked exactly as the driver asks it
 (:class:`optimizer.campaign.offspring.SurrogateOffspring`): fit on at most ``algorithm.surrogate.training``
 designs, search a pool of ``pool × batch`` candidates (every one checked geometrically), choose the batch.
 
-The batch's CFD wall time is ``batch × --cfd-seconds / --workers`` (default 13 s per medium design, the
-measured 11–14 s of a converged design, on 2 workers). Target: fit + screen below 5 % of it.
+The batch's CFD wall time is ``batch × --cfd-seconds / --workers`` (default 13 s per medium design on 2
+workers: below the 13–27 s per design, oscillating ones included, of the medium design G1 paper case's
+generations, so the share is if anything overstated). Target: fit + screen below 5 % of it.
 
     python bench/bench_surrogate_cost.py                          # 500 and 2000 stored designs
     python bench/bench_surrogate_cost.py --stored 2000 --config configs/paper/design_g1.yaml
