@@ -71,8 +71,9 @@ def cost(directory: Path) -> dict | None:
         generations = s.generations()
     # the workers' CPU time (the report's rule: its wall time where a row has none)
     cpu = sum((r.seconds or {}).get("cpu") or r.wall_seconds or 0.0 for r in rows) / 3600
+    wall = busy_hours(rows, generations)
     return {"state": state, "evaluations": len(rows), "generations": len(generations), "cpu_hours": cpu,
-            "wall_hours": busy_hours(rows, generations)}
+            "wall_hours": wall, "surrogate_share": driver_hours(generations) / wall if wall else None}
 
 
 def busy_hours(rows, generations) -> float:
@@ -90,8 +91,13 @@ def busy_hours(rows, generations) -> float:
         elif finish > end:
             busy += (finish - end).total_seconds()
             end = finish
-    driver = sum(sum(((g.search or {}).get("seconds") or {}).values()) for g in generations)
-    return (busy + driver) / 3600
+    return busy / 3600 + driver_hours(generations)
+
+
+def driver_hours(generations) -> float:
+    """Hours the driver's surrogate step spent fitting models and screening candidates (stored with each
+    generation), during which no evaluation runs."""
+    return sum(sum(((g.search or {}).get("seconds") or {}).values()) for g in generations) / 3600
 
 
 def _time(text: str) -> datetime:
@@ -196,15 +202,16 @@ def archive(out: Path, level: str, cases, dest: Path, unfinished: bool = False) 
 
 def summary(out: Path, level: str, cases) -> None:
     print(f"# the paper's cases, surrogate-assisted, {level} mesh; machine {platform.node()}, {os.cpu_count()} cores")
-    print("| case | state | generations | CFD evaluations | CPU hours | wall hours |")
-    print("|---|---|---|---|---|---|")
+    print("| case | state | generations | CFD evaluations | CPU hours | wall hours | of it, model fit and screening |")
+    print("|---|---|---|---|---|---|---|")
     for case in cases:
         c = cost(out / level / case)
         if c is None:
-            print(f"| {case} | not started | | | | |")
+            print(f"| {case} | not started | | | | | |")
             continue
+        share = "-" if c["surrogate_share"] is None else f"{100 * c['surrogate_share']:.1f} %"
         print(f"| {case} | {c['state']} | {c['generations']} | {c['evaluations']} | {c['cpu_hours']:.2f} "
-              f"| {c['wall_hours']:.2f} |")
+              f"| {c['wall_hours']:.2f} | {share} |")
     runs = " ".join(str(out / level / case) for case in cases if (out / level / case).exists())
     print(f"\nmillfoil report {runs} --out {out / level / 'report'}")
 
