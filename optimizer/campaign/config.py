@@ -117,6 +117,11 @@ class Objective(Section):
         """``|fy|`` or ``c_max``: the name of the value as the user states it."""
         return f"|{self.figure}|" if self.abs else self.figure
 
+    @property
+    def unit(self) -> str:
+        """The figure's unit (``N/m``, ``m/s``), or ``""`` for a dimensionless or analytic one."""
+        return FIGURES.get(self.figure, "").strip("-")
+
 
 class FigureConstraint(Section):
     """``lower <= figure <= upper`` (either bound may be left out; ``abs``: on the magnitude)."""

@@ -60,7 +60,8 @@ class GenerationProgress:
     total: offspring asked. cached: found in the store. infeasible: rejected by geometry. submitted:
     handed to the runner. done: finished with usable values. failed: finished without (any status but
     ``ok`` and ``infeasible``). workers: the runner's workers. best: ``{objective label: best value}``
-    over the run so far. hypervolume: of the population's feasible front after the previous generation.
+    over the run so far; units: ``{objective label: unit}`` (``""``: none). hypervolume: of the
+    population's feasible front after the previous generation.
     eta_s: estimated seconds to the end of the campaign (None while unknown). search: how the offspring
     were found (:mod:`optimizer.campaign.offspring`; the models' error once the generation is finished).
     """
@@ -75,6 +76,7 @@ class GenerationProgress:
     failed: int = 0
     workers: int = 0
     best: dict = field(default_factory=dict)
+    units: dict = field(default_factory=dict)
     hypervolume: float | None = None
     feasible_share: float | None = None
     eta_s: float | None = None
@@ -522,7 +524,8 @@ class _Loop:
     def _summary(self) -> dict:
         """Best value per objective so far and the last generation's hypervolume."""
         last = self.store.last_generation()
-        return {"best": dict(self.best), "hypervolume": None if last is None else last.hypervolume}
+        return {"best": dict(self.best), "units": {o.label: o.unit for o in self.config.objectives},
+                "hypervolume": None if last is None else last.hypervolume}
 
     def _eta(self, g: int, remaining_tasks: int, workers: int) -> float | None:
         """Seconds to the end while generation ``g`` has ``remaining_tasks`` evaluations to go: those at the

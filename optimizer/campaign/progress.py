@@ -39,9 +39,14 @@ def number(v: float | None) -> str:
     return "-" if v is None else f"{v:.4g}"
 
 
+def figures_text(values: dict[str, float], units: dict[str, str]) -> str:
+    """``|fy| 1.151e+04 N/m, c_max 13.32 m/s``: labelled values with their units, or ``-``."""
+    return ", ".join(f"{k} {number(v)}" + (f" {units[k]}" if units.get(k) else "") for k, v in values.items()) or "-"
+
+
 def progress_line(p) -> str:
     """One line for a :class:`GenerationProgress`, most telling first (a terminal may cut its end)."""
-    best = " ".join(f"{k} {number(v)}" for k, v in p.best.items()) or "-"
+    best = figures_text(p.best, p.units)
     share = "-" if p.feasible_share is None else f"{p.feasible_share:.0%}"
     counts = f"{p.done} done, {p.failed} failed, {p.infeasible} infeasible, {p.cached} cached"
     if not p.finished:
@@ -145,7 +150,7 @@ def status_of(directory: str | Path) -> dict:
         "generations": {"done": done, "total": config.algorithm.generations},
         "population": config.algorithm.population, "evaluations": len(rows), "by_status": by_status,
         "by_class": by_class, "current_generation": {"index": done, "stored": len(current)},
-        "best": best, "objectives": labels,
+        "best": best, "objectives": labels, "units": {o.label: o.unit for o in config.objectives},
         "hypervolume": [g.hypervolume for g in generations],
         "feasible_share": [g.feasible_share for g in generations],
         "cache_hits": sum(g.cache_hits for g in generations),
@@ -198,7 +203,7 @@ def format_status(s: dict) -> str:
         if g["done"] < g["total"] else f"  generations {g['done']}/{g['total']} (population {s['population']})",
         f"  evaluations {s['evaluations']}: " + ", ".join(f"{k} {v}" for k, v in sorted(s["by_status"].items())),
         "  convergence classes: " + (", ".join(f"{k} {v}" for k, v in sorted(s["by_class"].items())) or "-"),
-        "  best: " + (" ".join(f"{k} {number(v)}" for k, v in s["best"].items()) or "-"),
+        "  best: " + figures_text(s["best"], s.get("units", {})),
         f"  hypervolume (last generation): {number(s['hypervolume'][-1] if s['hypervolume'] else None)}; "
         f"feasible share of offspring (last): "
         + ("-" if not s["feasible_share"] or s["feasible_share"][-1] is None else f"{s['feasible_share'][-1]:.0%}")

@@ -78,8 +78,10 @@ def test_run_status_resume(tmp_path, zdt1, capsys):
     status = json.loads(capsys.readouterr().out)
     assert status["state"] == "finished" and status["generations"] == {"done": 3, "total": 3}
     assert status["by_status"] == {"ok": status["evaluations"]}
+    assert status["units"] == {"f1": "", "f2": ""}
     assert main(["status", str(run)]) == 0
-    assert "finished" in capsys.readouterr().out
+    text = capsys.readouterr().out
+    assert "finished" in text and "  best: f1 " in text and ", f2 " in text
 
     assert main(["run", str(zdt1), "--out", str(run)]) == 2            # never overwritten
     assert "millfoil resume" in capsys.readouterr().err
@@ -118,9 +120,10 @@ def test_resume_errors(tmp_path, capsys):
 
 def test_progress_display_live_on_a_terminal_and_lines_elsewhere():
     running = GenerationProgress(1, 5, total=10, submitted=8, done=3, failed=1, infeasible=2, workers=2,
-                                 best={"|fy|": 9924.3, "c_max": 21.0}, hypervolume=1.5, eta_s=3725)
+                                 best={"|fy|": 9924.3, "c_max": 21.0}, units={"|fy|": "N/m", "c_max": "m/s"},
+                                 hypervolume=1.5, eta_s=3725)
     assert "generation 2/5" in progress_line(running) and "2 running" in progress_line(running)
-    assert "ETA 1h02m" in progress_line(running) and "|fy| 9924" in progress_line(running)
+    assert "ETA 1h02m" in progress_line(running) and "best |fy| 9924 N/m, c_max 21 m/s |" in progress_line(running)
     finished = GenerationProgress(1, 5, total=10, done=7, failed=1, infeasible=2, finished=True)
 
     log = io.StringIO()
