@@ -55,6 +55,7 @@ from optimizer.report.study import (
     g1_pairs,
     is_study,
     kept_fields,
+    mesh_dependence,
     steadiness,
     study_levels,
     table7_rows,
@@ -177,7 +178,8 @@ def _summary(runs: list[Run], pts) -> str:
 
 def _study(runs: list[Run], pts, files: Files) -> str:
     """The "Paper study" section (:mod:`optimizer.report.study`): Table 7 side by side, Fig. 9, the G1 pairs
-    of Fig. 10–13 at each mesh level that has both G1 runs, and the claims table."""
+    of Fig. 10–13 at each mesh level that has both G1 runs, the claims table, and the fronts of each case run
+    at two mesh levels read side by side (only where there is one)."""
     parts = ["<h2 id=\"study\">Paper study</h2>\n<p class=\"note\">The runs of the paper's cases (blade family "
              "and objectives max |F_Y|, min C_max) beside Vessaz et al. (2013), compared within one mesh level. "
              "The paper's channel and mesh differ from ours (docs/explanation/campaigns.md): compare magnitudes "
@@ -198,6 +200,7 @@ def _study(runs: list[Run], pts, files: Files) -> str:
     for k, g in enumerate(found):
         parts.append(_study_pairs(g, k, files))
     parts.append(_study_claims(runs, pts, files))
+    parts.append(_study_mesh(runs, pts, files))
     return "\n".join(parts)
 
 
@@ -320,6 +323,52 @@ def _study_claims(runs: list[Run], pts, files: Files) -> str:
             "<table><tr><th class=\"l\">claim</th>"
             "<th class=\"l\">mesh</th><th class=\"l\">ours</th><th class=\"l paper\">paper, Table 7</th>"
             f"<th class=\"l\">verdict</th><th class=\"l\">designs used</th></tr>{rows}</table>")
+
+
+def _study_mesh(runs: list[Run], pts, files: Files) -> str:
+    found = mesh_dependence(runs, pts)
+    if not found:
+        return ""
+    files["mesh_dependence.csv"] = partial(_mesh_csv, found)
+
+    def side(p) -> str:
+        return "<td>-</td>" if p is None else (f"<td>{p.fy:.1f} <span class=\"note\">(#{p.design.number}, "
+                                               f"{e(steadiness(p, 'fy'))})</span></td>")
+
+    rows = "".join(f"<tr><td class=\"l\">{e(case_name(m.case))}</td><td class=\"l\">{e(' / '.join(m.levels))}</td>"
+                   f"<td>{b:.2f}</td>{side(a)}{side(f)}<td>{_gap(m.gap(i))}</td>"
+                   f"<td>{_pct(m.difference(i))}</td></tr>"
+                   for m in found for i, (b, (a, f)) in enumerate(zip(m.bounds, m.best, strict=True)))
+    return ("<h3>Mesh dependence</h3>\n<p class=\"note\">Each case run to its end at two mesh levels: the two "
+            "|F_Y|–C_max fronts read at common C_max bounds, from the higher of the two lowest C_max to the lower "
+            "of their C_max at maximum lift. At each bound, the largest |F_Y| (N over the span) of the designs "
+            "with C_max at most the bound, their difference (finer − coarser) and its share of the coarser. The "
+            "runs are separate searches as well as separate meshes, so Δ holds both. Table: "
+            "<a href=\"mesh_dependence.csv\">mesh_dependence.csv</a>.</p>\n<table><tr><th class=\"l\">case</th>"
+            "<th class=\"l\">meshes</th><th>C_max ≤ [m/s]</th><th>|F_Y| [N], coarser</th><th>|F_Y| [N], finer</th>"
+            "<th>Δ [N]</th><th>Δ</th></tr>"
+            f"{rows}</table>")
+
+
+def _gap(value: float | None) -> str:
+    return "-" if value is None else f"{value:+.1f}"
+
+
+def _mesh_csv(found, path: Path) -> None:
+    with open(path, "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(["mode", "continuity", "coarser_level", "finer_level", "c_max_bound",
+                    *[f"{side}_{c}" for side in ("coarser", "finer")
+                      for c in ("run", "number", "fy_span_N", "c_max", "class")], "gap_N", "relative"])
+        for m in found:
+            for i, (b, pair) in enumerate(zip(m.bounds, m.best, strict=True)):
+                cells = []
+                for run, p in zip(m.runs, pair, strict=True):
+                    cells += ([run.name, p.design.number, repr(p.fy), repr(p.cmax), steadiness(p, "fy")]
+                              if p is not None else [run.name, "", "", "", ""])
+                gap, d = m.gap(i), m.difference(i)
+                w.writerow([*m.case, *m.levels, repr(b), *cells, "" if gap is None else repr(gap),
+                            "" if d is None else repr(d)])
 
 
 def _claims_csv(found, path: Path) -> None:

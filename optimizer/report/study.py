@@ -10,6 +10,8 @@ fields files exist): no CFD, no geometry, no drawing.
 * :func:`pair_fronts`: six designs spread along the G1 design front, each paired with the nearest unused
   design of the G1 tool-path front (Fig. 10–13: "as near as possible for both cases").
 * :func:`claims`: the paper's three statements on Table 7 (§4) with our figures and a verdict.
+* :func:`mesh_dependence`: each case run to its end at two mesh levels, the two |F_Y|–C_max fronts read at
+  common C_max bounds: how much the mesh moves a front.
 
 Runs are compared only within one mesh level (:func:`mesh_level`); where two runs of one case share a level,
 the first given is used and the others are named in :attr:`StudyLevel.ignored`.
@@ -57,6 +59,8 @@ LIFT_DIFFERENCE = 0.04
 C2_LIFT_DROP = (0.10, 0.20)
 #: Designs along the G1 fronts for Fig. 10–13 (the paper shows six).
 PAIR_COUNT = 6
+#: C_max bounds at which two mesh levels' fronts of one case are read (:func:`mesh_dependence`).
+MESH_BOUNDS = 6
 
 
 class Verdict(enum.StrEnum):
@@ -439,3 +443,58 @@ def claims(runs: list[Run], pts: list[list[Point]]) -> list[Claim]:
     for level in study_levels([r for r, _ in finished], [p for _, p in finished]):
         out += [claim_lift_difference(level), claim_cmax_toolpath(level), claim_c2_lift(level)]
     return out
+
+
+# -------------------------------------------------------------------------------- mesh dependence
+@dataclass(frozen=True)
+class MeshComparison:
+    """One case run to its end at two mesh levels (``levels``, coarser first; ``runs`` in the same order):
+    at each C_max bound (m/s) of ``bounds``, the design of each run's |F_Y|–C_max front with the largest
+    |F_Y| among those with C_max at most the bound (``best[i] = (coarser, finer)``; None where a front has
+    none)."""
+
+    case: Case
+    levels: tuple[str, str]
+    runs: tuple[Run, Run]
+    bounds: tuple[float, ...]
+    best: tuple[tuple[Point | None, Point | None], ...]
+
+    def gap(self, i: int) -> float | None:
+        """finer − coarser |F_Y| (N) at bound ``i``, or None where either front has no design within it."""
+        a, b = self.best[i]
+        return None if a is None or b is None else b.fy - a.fy
+
+    def difference(self, i: int) -> float | None:
+        """The :meth:`gap` as a share of the coarser run's |F_Y|."""
+        gap = self.gap(i)
+        return None if gap is None else gap / self.best[i][0].fy
+
+
+def mesh_dependence(runs: list[Run], pts: list[list[Point]], count: int = MESH_BOUNDS) -> list[MeshComparison]:
+    """Every case with finished runs at two successive mesh levels (coarse and medium, medium and fine),
+    its two fronts read at ``count`` C_max bounds spread evenly from the larger of the two fronts' lowest
+    C_max to the smaller of their C_max at the largest |F_Y| (the range both fronts cover). The runs are
+    different searches as well as different meshes: a difference mixes the two; a front that moves by
+    much more than the runs' scatter is the mesh's doing."""
+    finished = [(r, p) for r, p in zip(runs, pts, strict=True) if r.campaign.state == "finished"]
+    levels = study_levels([r for r, _ in finished], [p for _, p in finished])
+    out = []
+    for coarse, fine in zip(levels, levels[1:], strict=False):
+        for c in sorted(coarse.cases.keys() & fine.cases.keys(), key=lambda c: (CONTINUITIES.index(c[1]),
+                                                                               MODES.index(c[0]))):
+            (ra, pa), (rb, pb) = coarse.cases[c], fine.cases[c]
+            fa, fb = front(pa), front(pb)
+            if not fa or not fb:
+                continue
+            lo, hi = max(fa[0].cmax, fb[0].cmax), min(fa[-1].cmax, fb[-1].cmax)
+            bounds = tuple(float(b) for b in np.linspace(lo, hi, count)) if hi > lo else (lo,)
+            best = tuple((_best_within(fa, b), _best_within(fb, b)) for b in bounds)
+            out.append(MeshComparison(c, (coarse.level, fine.level), (ra, rb), bounds, best))
+    return out
+
+
+def _best_within(f: list[Point], bound: float) -> Point | None:
+    """The design of front ``f`` (sorted by C_max, |F_Y| rising along it) with the largest |F_Y| among those
+    with C_max ≤ ``bound``."""
+    within = [p for p in f if p.cmax <= bound]
+    return within[-1] if within else None

@@ -27,6 +27,7 @@ from optimizer.report.study import (
     claim_lift_difference,
     claims,
     is_study,
+    mesh_dependence,
     normaliser,
     pair_fronts,
     spread,
@@ -197,6 +198,42 @@ def test_claims_leave_out_a_run_that_has_not_finished():
     verdicts = {(c.key, c.level): c.verdict for c in claims(runs, pts)}
     assert verdicts["a", "coarse"] == Verdict.HOLDS and verdicts["a", "medium"] == Verdict.CANNOT_TELL
     assert len(table7_rows(runs, pts)) == 4
+
+
+def test_mesh_dependence_reads_both_fronts_at_common_bounds():
+    """Coarse front: C_max 11, 12, 14 m/s with 10, 30, 50 N; medium: 11.5, 13, 15 m/s with 12, 36, 60 N. The
+    bounds run from 11.5 (the higher lowest C_max) to 14 (the lower C_max at maximum lift); at each, the best
+    lift within it. A dominated design and a case at one level only are not read; an unfinished run is left
+    out as for the claims."""
+    coarse = [point(10.0, 11.0), point(30.0, 12.0), point(50.0, 14.0), point(20.0, 13.0)]
+    medium = [point(12.0, 11.5), point(36.0, 13.0), point(60.0, 15.0)]
+    runs = [fake_run("design", "G1", "coarse"), fake_run("design", "G1", "medium"), fake_run("design", "C2", "coarse")]
+    pts = [coarse, medium, [point(40.0, 12.0)]]
+    [m] = mesh_dependence(runs, pts, count=6)
+    assert m.case == ("design", "G1") and m.levels == ("coarse", "medium")
+    assert m.bounds == pytest.approx((11.5, 12.0, 12.5, 13.0, 13.5, 14.0))
+    assert [(a.fy, f.fy) for a, f in m.best] == [(10, 12), (30, 12), (30, 12), (30, 36), (30, 36), (50, 36)]
+    assert m.gap(0) == pytest.approx(2.0) and m.difference(0) == pytest.approx(0.2)
+    assert m.gap(5) == pytest.approx(-14.0) and m.difference(5) == pytest.approx(-0.28)
+    unfinished = dataclasses.replace(runs[1], campaign=dataclasses.replace(runs[1].campaign, state="running"))
+    assert mesh_dependence([runs[0], unfinished, runs[2]], pts) == []
+
+
+def test_mesh_dependence_table_and_csv(tmp_path):
+    from optimizer.report.html import _study_mesh
+
+    runs = [fake_run("toolpath", "C1", "coarse"), fake_run("toolpath", "C1", "medium")]
+    pts = [[point(40.0, 12.0), point(50.0, 14.0)], [point(44.0, 12.0, dfy=1.5), point(55.0, 14.0)]]
+    files = {}
+    html = _study_mesh(runs, pts, files)
+    assert "Mesh dependence" in html and "C1 tool path" in html and "oscillating ±1.5 N" in html
+    files["mesh_dependence.csv"](tmp_path / "m.csv")
+    rows = list(csv.DictReader(open(tmp_path / "m.csv")))
+    assert len(rows) == 6 and rows[0]["coarser_level"] == "coarse" and rows[0]["finer_level"] == "medium"
+    assert float(rows[0]["c_max_bound"]) == 12.0 and float(rows[0]["gap_N"]) == pytest.approx(4.0)
+    assert float(rows[0]["relative"]) == pytest.approx(0.1)
+    assert float(rows[-1]["finer_fy_span_N"]) == 55.0 and rows[-1]["coarser_class"] == "steady"
+    assert _study_mesh(runs[:1], pts[:1], {}) == ""
 
 
 def test_a_study_needs_two_paper_cases():
