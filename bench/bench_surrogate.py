@@ -94,21 +94,13 @@ def archive_hypervolume(directory: Path) -> np.ndarray:
     """Hypervolume of the feasible designs evaluated so far, after each evaluation (stored order)."""
     from pymoo.indicators.hv import HV
 
-    from optimizer.campaign.store import STORE_NAME, Store, non_dominated
+    from optimizer.campaign.store import STORE_NAME, Store
+    from optimizer.report.analysis import hypervolume_trace
 
     with Store(directory / STORE_NAME, readonly=True) as s:
         rows = sorted(s.evaluations(), key=lambda r: (r.generation, r.finished))
-    hv = HV(ref_point=np.array(REFERENCE))
-    out = np.zeros(len(rows))
-    front = np.zeros((0, 2))
-    for i, r in enumerate(rows):
-        if r.feasible and np.all(np.array(r.minimised) < REFERENCE):
-            front = np.vstack([front, r.minimised])
-            front = front[non_dominated(front)]
-            out[i] = hv(front)
-        else:
-            out[i] = out[i - 1] if i else 0.0
-    return out
+    inside = (r.minimised if r.feasible and np.all(np.array(r.minimised) < REFERENCE) else None for r in rows)
+    return hypervolume_trace(inside, HV(ref_point=np.array(REFERENCE)))
 
 
 def igd_zdt1(directory: Path) -> float:

@@ -13,6 +13,7 @@ C_p,min = 1 − C_max²/C0², 2 C_max ΔC_max / C0² for |C_p,min|.
 from __future__ import annotations
 
 from collections import Counter
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -222,16 +223,28 @@ def convergence(runs: list[Run]) -> list[Convergence]:
         counted = [d for d in r.designs if d.row.status != "infeasible"]
         evaluations = np.arange(1, len(counted) + 1, dtype=float)
         seconds = [(d.row.seconds or {}).get("cpu") or d.row.wall_seconds or 0.0 for d in counted]
-        values = np.zeros(len(counted))
-        front = np.zeros((0, F.shape[1]))
-        level = 0.0
-        for i, d in enumerate(counted):
-            if d.row.feasible:
-                f = (np.array(d.row.minimised, float) - lo) / span
-                if np.all(f < reference):
-                    front = np.vstack([front, f])
-                    front = front[non_dominated(front)]
-                    level = float(hv(front))
-            values[i] = level
+        scaled = ((np.array(d.row.minimised, float) - lo) / span if d.row.feasible else None for d in counted)
+        values = hypervolume_trace((f if f is not None and np.all(f < reference) else None for f in scaled), hv)
         out.append(Convergence(r, evaluations, np.cumsum(seconds) / 3600.0, values))
     return out
+
+
+def hypervolume_trace(points: Iterable[np.ndarray | None], hv: Callable[[np.ndarray], float]) -> np.ndarray:
+    """After each of ``points`` (minimised objectives; None for one that adds nothing: failed, infeasible or
+    beyond the reference point), the hypervolume ``hv`` of the non-dominated set of the points so far (0
+    before the first). The front is kept up to date point by point and ``hv`` evaluated only when it
+    changes: a point that a front point dominates leaves front and value as they were. The front's rows
+    stay in arrival order, so each value is that of ``hv`` on the whole set's non-dominated rows."""
+    values, front, level = [], None, 0.0
+    for f in points:
+        if f is not None:
+            f = np.asarray(f, float)
+            if front is None:
+                front = f[None, :]
+                level = float(hv(front))
+            elif not np.any(np.all(front <= f, axis=1) & np.any(front < f, axis=1)):
+                beaten = np.all(f <= front, axis=1) & np.any(f < front, axis=1)
+                front = np.vstack([front[~beaten], f])
+                level = float(hv(front))
+        values.append(level)
+    return np.array(values)

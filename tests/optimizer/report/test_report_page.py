@@ -206,6 +206,28 @@ def test_page_renders_in_headless_chromium(report, tmp_path):
     Path(report / "screenshot.txt").write_text(f"rendered by {browser}\n")
 
 
+def test_hypervolume_trace_is_the_hypervolume_of_every_point_so_far():
+    """Against the hypervolume recomputed from all the points so far, after every point: ties, repeated
+    points, points that are dominated or dominate several front points, and points that add nothing."""
+    import numpy as np
+    from pymoo.indicators.hv import HV
+
+    from optimizer.campaign.store import non_dominated
+    from optimizer.report.analysis import hypervolume_trace
+
+    rng = np.random.default_rng(5)
+    points = [None if rng.random() < 0.1 else np.round(rng.random(2), 1) for _ in range(300)]
+    hv = HV(ref_point=np.array([1.1, 1.1]))
+    expected, seen = [], []
+    for f in points:
+        if f is not None:
+            seen.append(f)
+        F = np.array(seen).reshape(-1, 2)
+        expected.append(float(hv(F[non_dominated(F)])) if len(F) else 0.0)
+    assert hypervolume_trace(iter(points), hv).tolist() == expected
+    assert hypervolume_trace([None, None], hv).tolist() == [0.0, 0.0]
+
+
 def test_convergence_of_a_surrogate_run_beside_a_plain_one(tmp_path):
     from optimizer.campaign.config import load_campaign
     from optimizer.campaign.driver import run_campaign
