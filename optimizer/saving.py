@@ -40,15 +40,21 @@ class WriteFailure(RuntimeError):
     nothing was left behind (exit status 4)."""
 
 
-def write_all(files: Iterable[tuple[str | Path, Callable[[Path], object]]]) -> list[Path]:
+def write_all(files: Iterable[tuple[str | Path, Callable[[Path], object]]], jobs: int = 1) -> list[Path]:
     """Write every ``(path, write)`` of ``files`` through one :class:`Outputs`: all of them, or none and
-    WriteFailure naming the file and the reason. Returns the paths written."""
+    WriteFailure naming the file and the reason. ``jobs`` > 1 runs the writers in that many forked
+    processes (:meth:`Outputs.stage_all`; each writer must only write its file). Returns the paths written."""
     path = None
     try:
         with Outputs() as outputs:
-            for path, write in files:
-                outputs.stage(path, write)
+            if jobs > 1:
+                outputs.stage_all(list(files), jobs)
+            else:
+                for path, write in files:
+                    outputs.stage(path, write)
             return outputs.commit()
+    except _WriterFailed as exc:
+        raise WriteFailure(f"cannot write {exc.path}: {exc.reason}; no file was written") from None
     except Exception as exc:     # any writer's error: the files are discarded, the user gets one line
         raise WriteFailure(f"cannot write {path}: {type(exc).__name__}: {exc}; no file was written") from exc
 
@@ -118,6 +124,31 @@ def _umask() -> int:
     return mask
 
 
+class _WriterFailed(Exception):
+    """A writer of :meth:`Outputs.stage_all` raised: ``path`` its file, ``reason`` ``"Type: message"``."""
+
+    def __init__(self, path: Path, reason: str):
+        super().__init__(f"{path}: {reason}")
+        self.path, self.reason = path, reason
+
+
+#: The writers of the :meth:`Outputs.stage_all` call under way, for its forked processes to find by index.
+_PENDING: list[tuple[Path, Callable[[Path], object]]] = []
+
+
+def _write(temporary: Path, write: Callable[[Path], object]) -> str | None:
+    """Run one writer: None, or ``"Type: message"`` of what it raised."""
+    try:
+        write(temporary)
+    except Exception as exc:
+        return f"{type(exc).__name__}: {exc}"
+    return None
+
+
+def _write_pending(i: int) -> str | None:
+    return _write(*_PENDING[i])
+
+
 class Outputs:
     """Files written together: :meth:`stage` writes each under a temporary name beside it, :meth:`commit`
     renames them all onto their names; leaving the ``with`` block by an exception removes every staged file
@@ -131,14 +162,49 @@ class Outputs:
         """Call ``write(temporary path)``; the temporary name keeps ``path``'s suffix (writers choose the
         format by it). Returns ``path``."""
         path = Path(path)
+        temporary = self._temporary(path)
+        write(temporary)
+        os.chmod(temporary, 0o666 & ~_umask())   # mkstemp makes it private; the file gets the usual mode
+        return path
+
+    def _temporary(self, path: Path) -> Path:
+        """A new empty file beside ``path`` with its suffix, staged to be renamed onto it."""
         self._make_directory(path.parent)
         fd, name = tempfile.mkstemp(dir=path.parent, prefix=f".{path.stem}.", suffix=f".partial{path.suffix}")
         os.close(fd)
         temporary = Path(name)
         self._staged.append((temporary, path))
-        write(temporary)
-        os.chmod(temporary, 0o666 & ~_umask())   # mkstemp makes it private; the file gets the usual mode
-        return path
+        return temporary
+
+    def stage_all(self, files: list[tuple[str | Path, Callable[[Path], object]]], jobs: int) -> list[Path]:
+        """:meth:`stage` every ``(path, write)`` of ``files``, the writers run in up to ``jobs`` forked
+        processes, in the order given as workers come free (a report's figures: matplotlib draws on one core).
+        The temporary files are made here first, so :meth:`commit` renames in the order given. A fork inherits
+        the writers as they are, nothing is pickled; where processes cannot be forked the writers run here, one
+        after the other. The first writer that raises, in the order given, raises :class:`_WriterFailed`."""
+        global _PENDING
+        import multiprocessing
+
+        pending = []
+        for path, write in files:
+            try:
+                pending.append((self._temporary(Path(path)), write))
+            except OSError as exc:
+                raise _WriterFailed(Path(path), f"{type(exc).__name__}: {exc}") from exc
+        if jobs < 2 or len(pending) < 2 or "fork" not in multiprocessing.get_all_start_methods():
+            reasons = [_write(temporary, write) for temporary, write in pending]
+        else:
+            _PENDING = pending
+            try:
+                with multiprocessing.get_context("fork").Pool(min(jobs, len(pending))) as pool:
+                    reasons = pool.map(_write_pending, range(len(pending)), chunksize=1)
+            finally:
+                _PENDING = []
+        for (temporary, _), (path, _), reason in zip(pending, files, reasons, strict=True):
+            if reason is not None:
+                raise _WriterFailed(Path(path), reason)
+            os.chmod(temporary, 0o666 & ~_umask())
+        return [Path(path) for path, _ in files]
 
     def commit(self) -> list[Path]:
         """Rename every staged file onto its name; returns the names."""

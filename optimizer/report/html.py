@@ -111,7 +111,9 @@ def write_report(runs: list[Run], out: Path, option: str = "--out") -> Path:
             + "</nav>\n" + "\n".join(x for x in sections if x) + "\n</body></html>\n")
     files["index.html"] = lambda path: path.write_text(page, encoding="utf-8")     # renamed last
     check_output_directory(out, option, files=list(files))
-    write_all((out / name, write) for name, write in files.items())
+    # the figures are drawn on every core this process may use: a study's dozens of figures take a minute on one
+    write_all([(out / name, write) for name, write in files.items()], jobs=len(os.sched_getaffinity(0))
+              if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1)
     return out / "index.html"
 
 

@@ -135,6 +135,29 @@ def test_outputs_are_renamed_together_with_the_usual_mode(tmp_path):
     assert (tmp_path / "a.csv").stat().st_mode & 0o777 == 0o666 & ~umask
 
 
+def test_writers_in_forked_processes_write_the_same_files_renamed_in_order(tmp_path):
+    """``jobs=3``: the writers run in other processes (each file records its writer's pid), the files are
+    those of one process, renamed in the order given; one failing writer leaves none, its file named."""
+    def writer(text):
+        return lambda p: p.write_text(f"{text} {os.getpid()}")
+
+    files = [(tmp_path / f"{k}.csv", writer(k)) for k in range(6)]
+    written = write_all(files, jobs=3)
+    assert written == [path for path, _ in files]
+    texts = [p.read_text().split() for p in written]
+    assert [t[0] for t in texts] == [str(k) for k in range(6)]
+    assert str(os.getpid()) not in {t[1] for t in texts}
+    umask = os.umask(0)
+    os.umask(umask)
+    assert (tmp_path / "0.csv").stat().st_mode & 0o777 == 0o666 & ~umask
+    (tmp_path / "0.csv").write_text("old")
+    with pytest.raises(WriteFailure, match="cannot write .*4.csv: OSError: disk full; no file was written"):
+        write_all([*files[:4], (tmp_path / "d" / "4.csv", lambda p: (_ for _ in ()).throw(OSError("disk full"))),
+                   files[5]], jobs=3)
+    assert (tmp_path / "0.csv").read_text() == "old" and not (tmp_path / "d").exists()
+    assert not list(tmp_path.glob(".*partial*"))
+
+
 def test_a_failed_write_removes_the_staged_files_and_the_directories_it_made(tmp_path):
     (tmp_path / "keep.csv").write_text("old")
     with pytest.raises(WriteFailure, match="cannot write .*c.csv: OSError: disk full"):
