@@ -21,8 +21,10 @@ def register(sub: argparse._SubParsersAction) -> None:
         description="Read the stores of one or more runs (read-only: works while a campaign runs, showing what "
         "has finished) and write a static HTML page that opens without a network, with SVG figures and CSV "
         "tables beside it: the Pareto fronts |F_Y| vs C_max and C_L vs |C_p,min| (several runs on one plot), a "
-        "Table 7 summary (with the paper's values for its cases), blades along the front, campaign health per "
-        "generation, provenance. Exit status: 0 written, 2 bad input, 4 not written.",
+        "Table 7 summary (with the paper's values for its cases), blades and flow fields along the front, the "
+        "hypervolume against the CFD evaluations spent, campaign health per generation, provenance; with two or "
+        "more of the paper's eight cases, the paper study (Table 7 side by side, Fig. 9-13, the paper's "
+        "conclusions tested, mesh dependence). Exit status: 0 written, 2 bad input, 4 not written.",
         epilog="Examples:\n  millfoil report runs/quickstart\n"
         "  millfoil report runs/design_g1 runs/toolpath_g1 --out reports/g1 --open\n"
         "  millfoil report runs/examples/paper --out reports/paper\nSee docs/explanation/reports.md.",
@@ -45,6 +47,7 @@ def run_report(args: argparse.Namespace) -> int:
         print(f"millfoil: error: {exc}", file=sys.stderr)
         return EXIT_INPUT
     out = args.out or args.directories[0] / "report"
+    print(f"millfoil: drawing the report of {len(runs)} run{'s' * (len(runs) != 1)} in {out}", file=sys.stderr)
     try:
         # every path checked first (OutputError: exit 2); then all files or none (WriteFailure: exit 4)
         page = write_report(runs, out, "--out" if args.out else "the report directory")
