@@ -149,6 +149,15 @@ def _write_pending(i: int) -> str | None:
     return _write(*_PENDING[i])
 
 
+def can_fork_safely() -> bool:
+    """Whether this process may fork workers that run Python: the ``fork`` start method exists and no other
+    Python thread is running (a thread pool, a dask client's event loop) whose locks the child would inherit."""
+    import multiprocessing
+    import threading
+
+    return "fork" in multiprocessing.get_all_start_methods() and threading.active_count() == 1
+
+
 class Outputs:
     """Files written together: :meth:`stage` writes each under a temporary name beside it, :meth:`commit`
     renames them all onto their names; leaving the ``with`` block by an exception removes every staged file
@@ -180,24 +189,33 @@ class Outputs:
         """:meth:`stage` every ``(path, write)`` of ``files``, the writers run in up to ``jobs`` forked
         processes, in the order given as workers come free (a report's figures: matplotlib draws on one core).
         The temporary files are made here first, so :meth:`commit` renames in the order given. A fork inherits
-        the writers as they are, nothing is pickled; where processes cannot be forked the writers run here, one
-        after the other. The first writer that raises, in the order given, raises :class:`_WriterFailed`."""
+        the writers as they are, nothing is pickled. The writers run here, one after the other, where processes
+        cannot be forked safely: no ``fork`` start method, or other threads running in this process (a fork
+        copies the locks they hold, held, and its writer could wait on them for ever). A worker that dies
+        raises instead of leaving the rest waiting. The first writer that raises, in the order given, raises
+        :class:`_WriterFailed`."""
         global _PENDING
-        import multiprocessing
-
         pending = []
         for path, write in files:
             try:
                 pending.append((self._temporary(Path(path)), write))
             except OSError as exc:
                 raise _WriterFailed(Path(path), f"{type(exc).__name__}: {exc}") from exc
-        if jobs < 2 or len(pending) < 2 or "fork" not in multiprocessing.get_all_start_methods():
+        if jobs < 2 or len(pending) < 2 or not can_fork_safely():
             reasons = [_write(temporary, write) for temporary, write in pending]
         else:
+            import multiprocessing
+            from concurrent.futures import ProcessPoolExecutor
+            from concurrent.futures.process import BrokenProcessPool
+
             _PENDING = pending
             try:
-                with multiprocessing.get_context("fork").Pool(min(jobs, len(pending))) as pool:
-                    reasons = pool.map(_write_pending, range(len(pending)), chunksize=1)
+                with ProcessPoolExecutor(min(jobs, len(pending)), mp_context=multiprocessing.get_context("fork")) \
+                        as pool:
+                    reasons = list(pool.map(_write_pending, range(len(pending))))
+            except BrokenProcessPool:
+                raise _WriterFailed(Path(files[0][0]).parent, "a writer process ended abruptly (killed, or out "
+                                    "of memory)") from None
             finally:
                 _PENDING = []
         for (temporary, _), (path, _), reason in zip(pending, files, reasons, strict=True):

@@ -40,6 +40,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 def run_report(args: argparse.Namespace) -> int:
     from optimizer.report.html import write_report
     from optimizer.report.run import RunError, load_run, run_directories
+    from optimizer.saving import check_output_directory
 
     try:
         runs = [load_run(d) for d in run_directories(args.directories)]
@@ -47,10 +48,12 @@ def run_report(args: argparse.Namespace) -> int:
         print(f"millfoil: error: {exc}", file=sys.stderr)
         return EXIT_INPUT
     out = args.out or args.directories[0] / "report"
+    option = "--out" if args.out else "the report directory"
+    check_output_directory(out, option, files=["index.html"])   # a bad --out is refused before any drawing
     print(f"millfoil: drawing the report of {len(runs)} run{'s' * (len(runs) != 1)} in {out}", file=sys.stderr)
     try:
         # every path checked first (OutputError: exit 2); then all files or none (WriteFailure: exit 4)
-        page = write_report(runs, out, "--out" if args.out else "the report directory")
+        page = write_report(runs, out, option)
     except OSError as exc:
         print(f"millfoil: error: cannot write the report in {out}: {exc.strerror or exc}", file=sys.stderr)
         return EXIT_FAILED

@@ -30,8 +30,12 @@ def run(finished_zdt1) -> Path:
     return finished_zdt1
 
 
-def _one_error_line(err: str) -> str:
+def _one_error_line(err: str, progress: str = "") -> str:
+    """The one line of ``err`` (after the command's ``progress`` line, where it announced its work)."""
     lines = err.strip().splitlines()
+    if progress:
+        assert lines[0].startswith(progress), err
+        lines = lines[1:]
     assert len(lines) == 1, err
     assert lines[0].startswith("millfoil: error: ") and "Traceback" not in err
     return lines[0]
@@ -90,7 +94,7 @@ def test_report_on_a_full_disk_leaves_no_file_and_the_previous_report(run, tmp_p
     monkeypatch.setattr(page, "health_figure", _half_then_full(page.health_figure))
     capsys.readouterr()
     assert main(["report", str(run), "--out", str(out)]) == 4
-    line = _one_error_line(capsys.readouterr().err)
+    line = _one_error_line(capsys.readouterr().err, progress="millfoil: drawing the report of 1 run in ")
     assert "No space left on device" in line and "no file was written" in line
     assert _files(out) == before          # no temporary, no truncated SVG, the earlier report untouched
     fresh = tmp_path / "fresh"
@@ -101,7 +105,7 @@ def test_report_on_a_full_disk_leaves_no_file_and_the_previous_report(run, tmp_p
 def test_report_on_a_real_full_file_system(run, small_tmpfs, capsys):
     out = small_tmpfs / "report"
     assert main(["report", str(run), "--out", str(out)]) == 4
-    _one_error_line(capsys.readouterr().err)
+    _one_error_line(capsys.readouterr().err, progress="millfoil: drawing the report of 1 run in ")
     assert not out.exists() and list(small_tmpfs.iterdir()) == []
 
 

@@ -135,27 +135,78 @@ def test_outputs_are_renamed_together_with_the_usual_mode(tmp_path):
     assert (tmp_path / "a.csv").stat().st_mode & 0o777 == 0o666 & ~umask
 
 
-def test_writers_in_forked_processes_write_the_same_files_renamed_in_order(tmp_path):
-    """``jobs=3``: the writers run in other processes (each file records its writer's pid), the files are
-    those of one process, renamed in the order given; one failing writer leaves none, its file named."""
-    def writer(text):
-        return lambda p: p.write_text(f"{text} {os.getpid()}")
+_FORKED_WRITERS = """
+import os, sys, threading
+from pathlib import Path
+from optimizer.saving import WriteFailure, write_all
 
-    files = [(tmp_path / f"{k}.csv", writer(k)) for k in range(6)]
-    written = write_all(files, jobs=3)
-    assert written == [path for path, _ in files]
-    texts = [p.read_text().split() for p in written]
-    assert [t[0] for t in texts] == [str(k) for k in range(6)]
-    assert str(os.getpid()) not in {t[1] for t in texts}
-    umask = os.umask(0)
-    os.umask(umask)
-    assert (tmp_path / "0.csv").stat().st_mode & 0o777 == 0o666 & ~umask
+tmp_path, mode = Path(sys.argv[1]), sys.argv[2]
+if mode == "thread":            # another thread running: the writers must stay in this process
+    threading.Thread(target=threading.Event().wait, daemon=True).start()
+
+
+def writer(text):
+    def write(p):
+        if mode == "die" and text == 2:
+            os._exit(9)             # a worker killed mid-figure
+        p.write_text(f"{text} {os.getpid()}")
+    return write
+
+
+files = [(tmp_path / f"{k}.csv", writer(k)) for k in range(6)]
+try:
+    write_all(files, jobs=3)
+except WriteFailure as exc:
+    print("failed:", exc)
+print("parent", os.getpid())
+if mode == "fork":
     (tmp_path / "0.csv").write_text("old")
-    with pytest.raises(WriteFailure, match="cannot write .*4.csv: OSError: disk full; no file was written"):
+    try:
         write_all([*files[:4], (tmp_path / "d" / "4.csv", lambda p: (_ for _ in ()).throw(OSError("disk full"))),
                    files[5]], jobs=3)
+    except WriteFailure as exc:
+        print("failed:", exc)
+"""
+
+
+def _forked_writers(tmp_path, mode: str) -> str:
+    """The output of :data:`_FORKED_WRITERS` run in a fresh interpreter (no thread of this test session's)."""
+    import subprocess
+
+    proc = subprocess.run([sys.executable, "-c", _FORKED_WRITERS, str(tmp_path), mode], capture_output=True,
+                          text=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    return proc.stdout
+
+
+def test_writers_in_forked_processes_write_the_same_files_renamed_in_order(tmp_path):
+    """``jobs=3`` in a process with one thread: the writers run in other processes (each file records its
+    writer's pid), the files are those of one process, renamed in the order given; one failing writer leaves
+    none, its file named."""
+    out = _forked_writers(tmp_path, "fork")
+    parent = out.split("parent ")[1].split()[0]
+    texts = [(tmp_path / f"{k}.csv").read_text().split() for k in range(6)]
+    assert [t[0] for t in texts[1:]] == [str(k) for k in range(1, 6)]
+    assert parent not in {t[1] for t in texts[1:]}
+    umask = os.umask(0)
+    os.umask(umask)
+    assert (tmp_path / "1.csv").stat().st_mode & 0o777 == 0o666 & ~umask
+    assert "failed: cannot write " in out and "4.csv: OSError: disk full; no file was written" in out
     assert (tmp_path / "0.csv").read_text() == "old" and not (tmp_path / "d").exists()
     assert not list(tmp_path.glob(".*partial*"))
+
+
+def test_writers_stay_in_the_process_while_another_thread_runs(tmp_path):
+    """A fork would copy the other thread's locks, held: the writers run in the calling process instead."""
+    out = _forked_writers(tmp_path, "thread")
+    parent = out.split("parent ")[1].split()[0]
+    assert {(tmp_path / f"{k}.csv").read_text().split()[1] for k in range(6)} == {parent}
+
+
+def test_a_writer_process_that_dies_fails_the_write_instead_of_hanging(tmp_path):
+    out = _forked_writers(tmp_path, "die")
+    assert "failed: cannot write " in out and "no file was written" in out, out
+    assert not list(tmp_path.glob("*.csv")) and not list(tmp_path.glob(".*partial*"))
 
 
 def test_a_failed_write_removes_the_staged_files_and_the_directories_it_made(tmp_path):
