@@ -148,7 +148,8 @@ def archive(out: Path, level: str, cases, dest: Path, unfinished: bool = False) 
     """Copy the finished runs of ``out/level`` to ``dest/level`` as the repository keeps them: each store
     packed (a consistent snapshot; its message names the copy, not the original), its ``config.yaml``, and
     only the fields files the report of all of them draws (:func:`optimizer.report.html.fields_shown`), so
-    that ``millfoil report`` of the copies draws the same page. A run already there is replaced. The designs
+    that ``millfoil report`` of the copies draws the same page. A run already there is replaced, unless it is
+    the same finished campaign (same start, as many evaluations): that one is left as it is. The designs
     of a finished run's front whose fields files are missing are solved again first (:func:`restore_fields`).
 
     A run that is not finished is named and left out (the report would take its partial front for the
@@ -169,10 +170,15 @@ def archive(out: Path, level: str, cases, dest: Path, unfinished: bool = False) 
     for run in (r for r in runs if r.campaign.state != "finished"):
         kept = "archived without fields" if unfinished else "not archived"
         print(f"{run.directory}: {kept}, the campaign is {run.campaign.state}", file=sys.stderr)
-    for run in (r for r in runs if r.campaign.state == "finished"):
+    # a finished run archived before (copied back to continue the study) keeps the fields the report draws and
+    # no others: archiving it again would solve the rest of its front again for nothing
+    done = [r for r in runs if r.campaign.state == "finished" and _archived(r, dest / level)]
+    for run in done:
+        print(f"{run.directory}: already archived in {dest / level / run.directory.name}", file=sys.stderr)
+    for run in (r for r in runs if r.campaign.state == "finished" and r not in done):
         restore_fields(run.directory)
     shown = fields_shown([r for r in runs if r.campaign.state == "finished"])
-    runs = [r for r in runs if unfinished or r.campaign.state == "finished"]
+    runs = [r for r in runs if (unfinished or r.campaign.state == "finished") and r not in done]
     for run in runs:
         target = dest / level / run.directory.name
         shutil.rmtree(target, ignore_errors=True)
@@ -198,6 +204,19 @@ def archive(out: Path, level: str, cases, dest: Path, unfinished: bool = False) 
                 shutil.copy2(kept, fields_path(target, key))
         size = sum(f.stat().st_size for f in target.rglob("*") if f.is_file())
         print(f"{target}: {size / 1e6:.2f} MB ({len(shown.get(run.directory, ()))} fields files)", file=sys.stderr)
+
+
+def _archived(run, dest: Path) -> bool:
+    """Whether ``dest`` holds ``run``'s finished campaign already (same start, same evaluations)."""
+    from optimizer.campaign.store import STORE_NAME, stored
+    from optimizer.report.run import load_run
+
+    target = dest / run.directory.name
+    if not stored(target / STORE_NAME):
+        return False
+    kept = load_run(target)
+    return (kept.campaign.state == "finished" and kept.campaign.started == run.campaign.started
+            and len(kept.designs) == len(run.designs))
 
 
 def summary(out: Path, level: str, cases) -> None:

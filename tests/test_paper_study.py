@@ -106,6 +106,27 @@ def test_an_unfinished_run_is_copied_without_fields_and_continues_from_the_copy(
     assert before < {r.key for r in rows} and len(rows) == 18          # the rest of the third generation only
 
 
+def test_a_finished_run_archived_before_is_left_as_it_is(paper_study, interrupted, tmp_path, capsys,
+                                                           monkeypatch):
+    """Archived, then copied back without the fields its report does not draw and archived again: its front
+    is not solved again and the copy is not touched."""
+    run, _ = interrupted
+    assert resume_campaign(run).state == "finished"
+    paper_study.archive(run.parents[1], "medium", ["design_g1"], tmp_path / "kept")
+    kept = tmp_path / "kept" / "medium" / "design_g1"
+    before = {p: p.stat().st_mtime_ns for p in kept.rglob("*")}
+    shutil.rmtree(run / "fields")
+
+    def solve_again(directory):
+        raise AssertionError(f"{directory} solved again")
+
+    monkeypatch.setattr(paper_study, "restore_fields", solve_again)
+    capsys.readouterr()
+    paper_study.archive(run.parents[1], "medium", ["design_g1"], tmp_path / "kept")
+    assert f"already archived in {kept}" in capsys.readouterr().err
+    assert {p: p.stat().st_mtime_ns for p in kept.rglob("*")} == before
+
+
 @pytest.mark.slow
 def test_a_finished_run_missing_front_fields_gets_them_solved_again(paper_study, tmp_path):
     """A run continued from a copy without fields: the archive solves its front designs again, and the files
