@@ -172,13 +172,13 @@ def archive(out: Path, level: str, cases, dest: Path, unfinished: bool = False) 
         print(f"{run.directory}: {kept}, the campaign is {run.campaign.state}", file=sys.stderr)
     # a finished run archived before (copied back to continue the study) keeps the fields the report draws and
     # no others: archiving it again would solve the rest of its front again for nothing
-    done = [r for r in runs if r.campaign.state == "finished" and _archived(r, dest / level)]
-    for run in done:
-        print(f"{run.directory}: already archived in {dest / level / run.directory.name}", file=sys.stderr)
-    for run in (r for r in runs if r.campaign.state == "finished" and r not in done):
+    done = {r.directory for r in runs if r.campaign.state == "finished" and _archived(r, dest / level)}
+    for directory in sorted(done):
+        print(f"{directory}: already archived in {dest / level / directory.name}", file=sys.stderr)
+    for run in (r for r in runs if r.campaign.state == "finished" and r.directory not in done):
         restore_fields(run.directory)
     shown = fields_shown([r for r in runs if r.campaign.state == "finished"])
-    runs = [r for r in runs if (unfinished or r.campaign.state == "finished") and r not in done]
+    runs = [r for r in runs if (unfinished or r.campaign.state == "finished") and r.directory not in done]
     for run in runs:
         target = dest / level / run.directory.name
         shutil.rmtree(target, ignore_errors=True)
