@@ -784,13 +784,33 @@ class Store:
 
 def non_dominated(F: np.ndarray, chunk: int = 256) -> np.ndarray:
     """``(n,)`` mask of the rows of ``F (n, m)`` that no other row dominates (≤ in every column, < in one);
-    minimisation. Compared in chunks of rows: memory ``chunk × n × m``."""
+    minimisation; equal rows keep each other. Two finite columns: one sweep in sorted order (n log n; a
+    plain campaign's 5 000 designs in a millisecond). Otherwise compared in chunks of rows: memory
+    ``chunk × n × m``."""
     F = np.asarray(F, float)
+    if F.ndim == 2 and F.shape[1] == 2 and np.isfinite(F).all():
+        return _non_dominated_2d(F)
     keep = np.ones(len(F), bool)
     for i in range(0, len(F), chunk):
         a = F[i:i + chunk, None, :]
         dominated = np.all(F[None] <= a, axis=2) & np.any(F[None] < a, axis=2)
         keep[i:i + chunk] = ~dominated.any(axis=1)
+    return keep
+
+
+def _non_dominated_2d(F: np.ndarray) -> np.ndarray:
+    """:func:`non_dominated` of two finite columns. In lexicographic order every earlier row is no worse
+    in the first column, so a row is dominated exactly when some earlier row that differs from it is no
+    worse in the second; equal rows are adjacent, so "earlier and different" is "before its run of
+    equal rows"."""
+    order = np.lexsort((F[:, 1], F[:, 0]))
+    a, b = F[order, 0], F[order, 1]
+    new_run = np.ones(len(F), bool)
+    new_run[1:] = (a[1:] != a[:-1]) | (b[1:] != b[:-1])
+    run_start = np.maximum.accumulate(np.where(new_run, np.arange(len(F)), 0))
+    best_before = np.concatenate([[np.inf], np.minimum.accumulate(b)])[run_start]
+    keep = np.empty(len(F), bool)
+    keep[order] = b < best_before
     return keep
 
 

@@ -144,20 +144,20 @@ def health_figure(h: Health, path: Path) -> Path:
     ax.plot(g, hv, "o-", ms=3)
     ax.set_title("hypervolume")
     ax = axes[0, 1]
-    ax.bar(g, [np.nan if v is None else 100 * v for v in h.feasible_share], color="C2")
+    _columns(ax, g, [np.nan if v is None else 100 * v for v in h.feasible_share], color="C2")
     ax.set_ylim(0, 100)
     ax.set_title("feasible share of offspring [%]")
     for ax, counts, title in ((axes[1, 0], h.by_status, "designs by status"),
                               (axes[1, 1], h.by_class, "solved designs by convergence class")):
         bottom = np.zeros(len(g))
         for k, (name, values) in enumerate(counts.items()):
-            ax.bar(g, values, bottom=bottom, label=name, color=f"C{k}")
-            bottom += np.array(values)
+            _columns(ax, g, values, bottom=bottom, label=name, color=f"C{k}")
+            bottom = bottom + np.array(values)
         ax.set_title(title)
         if counts:
             ax.legend(fontsize=6)
     ax = axes[0, 2]
-    ax.bar(g, h.cache_hits, color="C4")
+    _columns(ax, g, h.cache_hits, color="C4")
     ax.set_title("cache hits")
     ax = axes[1, 2]
     if h.times:
@@ -171,6 +171,17 @@ def health_figure(h: Health, path: Path) -> Path:
     fig.savefig(path)
     plt.close(fig)
     return path
+
+
+def _columns(ax, g: np.ndarray, values, bottom: np.ndarray | None = None, **style) -> None:
+    """One column per generation ``g`` from ``bottom`` (0) up by ``values``, as a single filled step patch:
+    a bar per generation and series costs a patch each, a campaign's 50 generations × 8 series hundreds,
+    the report's slowest drawing. A NaN value leaves its column empty."""
+    if len(g) == 0:
+        return
+    edges = np.concatenate([[g[0] - 0.5], (g[1:] + g[:-1]) / 2.0, [g[-1] + 0.5]])
+    base = np.zeros(len(g)) if bottom is None else np.asarray(bottom, float)
+    ax.stairs(base + np.asarray(values, float), edges, baseline=base, fill=True, **style)
 
 
 def fields_figure(chosen: list[tuple[Point, dict]], path: Path) -> Path:

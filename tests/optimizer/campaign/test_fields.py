@@ -108,6 +108,19 @@ def test_non_dominated_matches_a_direct_check():
     np.testing.assert_array_equal(non_dominated(F), direct)
 
 
+@pytest.mark.parametrize("n", [0, 1, 2, 700])
+def test_non_dominated_of_two_objectives_matches_a_direct_check(n):
+    """The sorted sweep for two columns, with ties in each column and whole rows repeated."""
+    F = np.random.default_rng(n).integers(0, 6, size=(n, 2)).astype(float)
+    direct = np.array([not any(np.all(G <= f) and np.any(G < f) for G in F) for f in F], bool)
+    np.testing.assert_array_equal(non_dominated(F), direct)
+
+
+def test_non_dominated_of_two_objectives_with_a_nan_row_compares_it_as_before():
+    F = np.array([[1.0, 2.0], [np.nan, 0.0], [2.0, 1.0], [2.0, 3.0]])
+    np.testing.assert_array_equal(non_dominated(F), [True, True, True, False])
+
+
 def test_a_campaign_keeps_the_fields_of_its_front_only(tmp_path, blade, monkeypatch):
     """The driver names each blade's fields file in its payload, the worker writes it, and after the last
     generation the files are exactly those of the stored front (stand-in pipeline: no CFD)."""
