@@ -71,7 +71,8 @@ class Bound(NamedTuple):
         return f"{'(' if self.open_lower else '['}{self.lower:g}, {upper}{' ' + self.unit if self.unit else ''}"
 
 
-_DOMAIN = "a larger domain only adds far-field cells; the paper's is 5 / 10 / 5 chords"
+_DOMAIN = ("a larger domain only adds far-field cells; the default is 5 / 10 / 5 chords (the paper's Fig. 8 is "
+           "not dimensioned)")
 #: Ranges of the :class:`MeshSpec` fields (docs/reference/errors.md shows this table). Lower bounds of the domain
 #: extents are only ``> 0``: whether a domain holds the O-layer depends on the blade, and the mesher says so.
 BOUNDS: dict[str, Bound] = {
