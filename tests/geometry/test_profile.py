@@ -68,14 +68,18 @@ MODES = ["design", pytest.param("toolpath", marks=pytest.mark.slow)]  # tool pat
 @pytest.mark.parametrize("continuity", ["G0", "G1", "C1", "G2", "C2"])
 def test_every_blade_passing_eq21_builds_or_says_why(mode, continuity):
     space = ParameterSpace.default(mode, continuity)
+    passing = 0
     for x in space.sample(20, np.random.default_rng(11)):
         result = evaluate_blade(space.spec(x))
         assert np.all(np.isfinite(result.values))
         assert len(result.values) == (5 if mode == "toolpath" else 3)
         for c in result.violations:
             assert c.reason
-        if result.profile is None:
-            assert not result.feasible
+        if all(c.satisfied for c in result.constraints if c.name.startswith("eq21")):
+            passing += 1
+            # built, or a violated constraint beyond Eq. 21 names what stopped it
+            assert result.profile is not None or any(not c.name.startswith("eq21") for c in result.violations)
+    assert passing > 0                      # the sample reaches the case the test is about
 
 
 def trailing_edge_corners(profile):

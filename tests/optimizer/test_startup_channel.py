@@ -2,10 +2,8 @@
 
 import pytest
 
-pytest.importorskip("gmsh")
-
-from optimizer.config import Config  # noqa: E402
-from optimizer.pipeline import evaluate  # noqa: E402
+from optimizer.config import Config
+from optimizer.pipeline import evaluate
 
 
 @pytest.mark.slow

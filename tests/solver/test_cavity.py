@@ -5,8 +5,6 @@ Full-resolution validation (not run here): ``millfoil validate cavity --level fi
 (Re 100 and 1000); manufactured solutions: ``millfoil validate mms``.
 """
 
-import importlib.util
-
 import numpy as np
 import pytest
 
@@ -14,8 +12,6 @@ from solver import ConvergenceClass, Fluid, Problem, SimpleSettings, solve_stead
 from solver.boundary import resolve_boundaries
 from solver.validation.cavity import cavity_settings, run_cavity, table
 from solver.validation.meshes import square_mesh
-
-needs_gmsh = pytest.mark.skipif(importlib.util.find_spec("gmsh") is None, reason="gmsh not installed")
 
 #: The solver settings of these tests, given in full so that they do not follow SimpleSettings' defaults: SIMPLEC,
 #: alpha_u 0.8, alpha_p 1, no early stop on stalled residuals.
@@ -87,7 +83,6 @@ def cavity100():
 
 
 @pytest.mark.slow
-@needs_gmsh
 def test_cavity_re100_matches_ghia(cavity100):
     """Golden tolerance: measured RMS centreline error 0.32 % of U (linear upwind) on this mesh; first-order
     upwind gives 0.63 % and a missing deferred correction or wrong Rhie–Chow term gives more, so 0.45 %
@@ -103,7 +98,6 @@ def test_cavity_re100_matches_ghia(cavity100):
 
 
 @pytest.mark.slow
-@needs_gmsh
 def test_cavity_results_api(cavity100, tmp_path):
     res, _ = cavity100
     assert res.iterations == len(res.residuals["u"]) == len(res.residuals["continuity"])
@@ -123,7 +117,6 @@ def test_cavity_results_api(cavity100, tmp_path):
 
 
 @pytest.mark.slow
-@needs_gmsh
 def test_upwind_is_less_accurate(cavity100):
     """Sanity of the deferred correction: first-order upwind is measurably worse on the same mesh."""
     _, cmp = cavity100
@@ -132,7 +125,6 @@ def test_upwind_is_less_accurate(cavity100):
 
 
 @pytest.mark.slow
-@needs_gmsh
 def test_manufactured_solution_order():
     """MMS on a 170-cell gmsh triangle mesh and its two uniform refinements (680, 2 720 cells), mu = 0.1,
     rho = 1: observed orders >= 1.8 (velocity) and >= 1.5 (pressure), measured 2.28 / 2.46. Without the

@@ -129,7 +129,8 @@ def test_pattern_matches_coo_assembly(distorted):
 def test_msh_roundtrip(tmp_path):
     """A gmsh 2.2 file written with physical line groups loads with the same geometry and groups
     (cells are reordered quads first, then triangles, as in meshing.Mesh2D)."""
-    meshio = pytest.importorskip("meshio")
+    import meshio
+
     m = square_mesh(6, triangles="checker", distort=0.2)
     pts = np.column_stack([m.points, np.zeros(len(m.points))])
     names = m.group_names
@@ -152,7 +153,6 @@ def test_msh_roundtrip(tmp_path):
 
 
 def test_gmsh_mixed_mesh_gradient_exact():
-    pytest.importorskip("gmsh")
     from solver.validation.meshes import gmsh_square
 
     m = gmsh_square(0.1, quads="left_half")

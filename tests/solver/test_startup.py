@@ -2,14 +2,10 @@
 
 import dataclasses
 
-import pytest
-
-pytest.importorskip("gmsh")
-
-import solver.simple as simple  # noqa: E402
-from solver import Problem, solve_steady  # noqa: E402
-from solver.validation.cylinder import BOUNDARY_CONDITIONS, FLUID, LEVELS, cylinder_settings  # noqa: E402
-from solver.validation.meshes import dfg_cylinder  # noqa: E402
+import solver.simple as simple
+from solver import Problem, solve_steady
+from solver.validation.cylinder import BOUNDARY_CONDITIONS, FLUID, LEVELS, cylinder_settings
+from solver.validation.meshes import dfg_cylinder
 
 
 def _relaxations(monkeypatch, settings) -> list[float]:

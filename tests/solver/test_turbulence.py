@@ -1,7 +1,7 @@
 """SST closures (limits of each blending function and limiter), wall distance, the automatic wall law,
 inlet turbulence, positivity of k and omega in a short turbulent run, and the laminar path unchanged.
 
-Flat-plate validation against NASA TMR: ``tests/test_solver_flatplate.py`` (coarse) and
+Flat-plate validation against NASA TMR: ``tests/solver/test_flatplate.py`` (coarse) and
 ``millfoil validate flatplate --level fine`` (issue tolerances).
 """
 

@@ -4,15 +4,12 @@ Full-resolution figures (not run here): ``python -c "from solver.validation impo
 print(run_case('cylinder', 'fine'))"`` and likewise ``cavity`` / ``mms`` at ``medium`` / ``fine``.
 """
 
-import importlib.util
 import json
 
 import numpy as np
 import pytest
 
 from solver.validation import CASES, LEVELS, Comparison, ValidationReport, run_case
-
-needs_gmsh = pytest.mark.skipif(importlib.util.find_spec("gmsh") is None, reason="gmsh not installed")
 
 
 def test_registry_and_errors():
@@ -33,7 +30,6 @@ def test_comparison_pass_and_json():
     assert not r.passed
 
 
-@needs_gmsh
 def test_dfg_mesh_geometry():
     """Areas sum to the channel minus the (polygonal) cylinder; the cylinder group has 4 n_quarter faces
     whose polygon has nodes at the two Δp points; groups are named."""
@@ -52,7 +48,6 @@ def test_dfg_mesh_geometry():
 
 
 @pytest.mark.slow
-@needs_gmsh
 def test_cylinder_coarse_report():
     """DFG 2D-1 on 1 826 cells in about a second; tolerances and why they catch first-order upwind in
     :data:`solver.validation.cylinder.CYLINDER_TOLERANCES`."""
@@ -63,7 +58,6 @@ def test_cylinder_coarse_report():
 
 
 @pytest.mark.slow
-@needs_gmsh
 def test_cylinder_upwind_fails_coarse_tolerance():
     """The coarse tolerances fail a first-order convection scheme (measured C_D error 13 %)."""
     from solver.validation.cylinder import CYLINDER_TOLERANCES, cylinder_settings, errors, run_cylinder
@@ -73,17 +67,13 @@ def test_cylinder_upwind_fails_coarse_tolerance():
 
 
 @pytest.mark.slow
-@needs_gmsh
 def test_cavity_coarse_report():
     r = run_case("cavity", "coarse")
     assert r.passed and r.details["re100"]["converged"]
-    assert r.comparisons[0].error == r.comparisons[0].computed       # RMS error vs a zero reference
 
 
 @pytest.mark.slow
-@needs_gmsh
 def test_mms_coarse_report():
     r = run_case("mms", "coarse")
     assert r.passed, r.comparisons
     assert all(m["status"] == "converged" for m in r.details["meshes"])
-    assert r.comparisons[0].computed == pytest.approx(2.0 - r.comparisons[0].error)

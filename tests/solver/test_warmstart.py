@@ -3,12 +3,10 @@
 import numpy as np
 import pytest
 
-pytest.importorskip("gmsh")
-
-from solver import Problem, solve_steady  # noqa: E402
-from solver.validation.cylinder import BOUNDARY_CONDITIONS, FLUID, LEVELS, coefficients, cylinder_settings  # noqa: E402
-from solver.validation.meshes import dfg_cylinder  # noqa: E402
-from solver.warmstart import mapped_state  # noqa: E402
+from solver import Problem, solve_steady
+from solver.validation.cylinder import BOUNDARY_CONDITIONS, FLUID, LEVELS, coefficients, cylinder_settings
+from solver.validation.meshes import dfg_cylinder
+from solver.warmstart import mapped_state
 
 
 @pytest.mark.slow

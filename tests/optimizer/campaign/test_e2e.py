@@ -38,9 +38,10 @@ def test_tiny_cfd_campaign_on_a_local_cluster(tmp_path):
     assert all(r.worker.startswith("tcp://") for r in solved)
     meshed = [r for r in solved if r.cells]
     assert meshed and all(3000 < r.cells < 8000 for r in meshed)        # coarse, 1-chord channel: ~5 000
-    for r in rows:
-        if r.status == "ok":
-            assert r.convergence in ("converged", "stationary", "oscillating")
-            assert all(math.isfinite(v) for v in r.objectives.values())
-            assert r.objectives["|fy|"] > 0 and r.objectives["c_max"] > 10.0     # faster than C0 = 10 m/s
-            assert set(r.seconds) >= {"geometry", "mesh", "solve", "post"}
+    ok = [r for r in rows if r.status == "ok"]
+    assert len(ok) >= 2                                                 # the solves behind the front ran
+    for r in ok:
+        assert r.convergence in ("converged", "stationary", "oscillating")
+        assert all(math.isfinite(v) for v in r.objectives.values())
+        assert r.objectives["|fy|"] > 0 and r.objectives["c_max"] > 10.0     # faster than C0 = 10 m/s
+        assert set(r.seconds) >= {"geometry", "mesh", "solve", "post"}
