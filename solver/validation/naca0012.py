@@ -19,7 +19,7 @@ Green-Gauss pressure gradient (in the momentum source and Rhie-Chow alike), Open
 and the two-point wall omega flux. Against OpenFOAM's ``kOmegaSST`` on the same C-meshes they
 put C_L,max at OpenFOAM's angle (coarse 16 deg, medium 17 deg) with OpenFOAM's coarse-to-medium trend, and the
 lift within 1 % from 13 to 17 deg (coarse) and at 12 and 14-17 deg (medium), but +1.1 to +1.2 % at 10-12 deg
-(coarse); against CFL3D at 10 deg: coarse C_L -1.18 %, C_D -7.6 %, fine -0.96 % / -1.83 %
+(coarse); against CFL3D at 10 deg: coarse C_L -1.30 %, C_D -6.1 % (2 700 iterations), fine -0.96 % / -1.83 %
 (docs/explanation/naca0012.md). The default keeps the
 case's TMR figures and loses lift near stall on the coarse mesh (-7 % at 16 deg).
 

@@ -169,7 +169,7 @@ def test_sst_alpha10_coarse_matches_cfl3d():
     """From the potential start, k-omega SST (low_re) at alpha = 10 deg on the coarse C-mesh (10 800 cells):
     measured C_L 1.0616 (-1.50 % of CFL3D's 1.0778), C_D 0.012056 (-2.48 % of 0.012362), C_p RMS 0.077,
     converged after 1 700 iterations (183 s on the development machine; with the near-stall settings, not the
-    case's default: C_L -1.44 %, C_D +3.58 %, C_p RMS 0.080). The acceptance tolerances: C_L 2 %, C_D 8 %. The
+    case's default: C_L -1.30 %, C_D -6.1 %, 2 700 iterations). The acceptance tolerances: C_L 2 %, C_D 8 %. The
     earlier SST variant (linear-upwind k/omega) gave C_D +8.6 % on the medium mesh, and the quadratic face flux
     on these quads separated the flow (C_D 0.034; docs/explanation/naca0012.md)."""
     from solver.validation import run_case
