@@ -49,7 +49,13 @@ def register(sub: argparse._SubParsersAction) -> None:
         help="list the parameters of a blade family and its optimisation space",
         description="Print every parameter of the configured (mode, continuity) with its unit, meaning and "
         "domain, and the optimisation space: design variables with bounds (Table 6 unless the config's "
-        "blade.bounds/blade.fixed change them) and fixed values.",
+        "blade.bounds/blade.fixed change them) and fixed values. CONFIG may be a blade file or a campaign "
+        "file (the space its campaign searches).",
+        epilog="Examples:\n"
+        "  millfoil space                                        # Table 4's family: C2 design blades\n"
+        "  millfoil space configs/paper/toolpath_c1.yaml         # a paper case's space\n"
+        "  millfoil space --set blade.mode=toolpath --set blade.continuity=G2",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     config_arguments(space)
     space.set_defaults(run=run_space)
@@ -139,11 +145,26 @@ def _describe_profile(s: dict) -> str:
 
 
 def run_space(args: argparse.Namespace) -> int:
-    config = load(args, blade_values=False)
-    blade = config.blade
+    blade = _blade_section(args)
     space = blade.space()
     print(f"{blade.continuity.value} {blade.mode.value} blades: {len(space.names)} design variables")
     print(f"  {'name':9s} {'unit':4s} {'optimisation':24s} {'domain':16s} meaning")
     for name, param in parameters_of(blade.mode, blade.continuity).items():
         print(f"  {name:9s} {param.unit:4s} {space.role(name):24s} {param.domain_text:16s} {param.description}")
     return EXIT_OK
+
+
+def _blade_section(args: argparse.Namespace):
+    """The ``blade:`` section of CONFIG: a blade file's, or a campaign file's (told apart by a section only a
+    campaign has: ``objectives:``, ``algorithm:`` …), validated by its own schema."""
+    from optimizer.campaign.config import CampaignConfig, load_campaign
+    from optimizer.config import Config, read_yaml
+
+    campaign_only = set(CampaignConfig.model_fields) - set(Config.model_fields)
+    if args.config is not None and campaign_only & set(read_yaml(args.config)):
+        config = load_campaign(args.config, args.overrides)
+        if config.analytic is not None:
+            raise ConfigError(f"{args.config}: an analytic campaign has no blade space (its 'analytic:' section "
+                              f"replaces the blade)")
+        return config.blade
+    return load(args, blade_values=False).blade

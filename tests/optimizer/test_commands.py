@@ -64,6 +64,17 @@ def test_space_lists_variables_and_fixed_values(capsys):
     assert "[0.004, 0.006]" in out and "fixed 10" in out and "[0.008, 0.011]" in out
 
 
+def test_space_of_a_campaign_file_is_the_space_its_campaign_searches(tmp_path, capsys):
+    paper = EXAMPLES.parent / "paper" / "toolpath_c1.yaml"
+    assert main(["space", str(paper), "--set", "blade.bounds.alpha=[0, 20]"]) == EXIT_OK
+    out = capsys.readouterr().out
+    assert "C1 toolpath blades: 10 design variables" in out and "[0, 20]" in out
+    analytic = tmp_path / "zdt1.yaml"
+    analytic.write_text("analytic: {problem: zdt1}\n")
+    assert main(["space", str(analytic)]) == EXIT_INPUT
+    assert "an analytic campaign has no blade space" in capsys.readouterr().err
+
+
 def test_space_overrides_are_validated(capsys):
     assert main(["space", "--set", "blade.bounds.alpha=[30, 10]"]) == EXIT_INPUT
     assert "bounds of 'alpha' must satisfy lower <= upper" in capsys.readouterr().err
