@@ -190,8 +190,8 @@ def archive(out: Path, level: str, cases, dest: Path, unfinished: bool = False) 
         try:
             source.backup(copy)
             with copy:
-                copy.execute("UPDATE campaign SET message = replace(message, ?, ?)", (str(run.directory), str(
-                    target.relative_to(ROOT) if target.is_relative_to(ROOT) else target)))
+                copy.execute("UPDATE campaign SET message = replace(message, ?, ?)",
+                             (str(run.directory), str(_in_repository(target))))
         finally:
             source.close()
             copy.close()
@@ -204,6 +204,16 @@ def archive(out: Path, level: str, cases, dest: Path, unfinished: bool = False) 
                 shutil.copy2(kept, fields_path(target, key))
         size = sum(f.stat().st_size for f in target.rglob("*") if f.is_file())
         print(f"{target}: {size / 1e6:.2f} MB ({len(shown.get(run.directory, ()))} fields files)", file=sys.stderr)
+
+
+def _in_repository(path: Path) -> Path:
+    """``path`` relative to the git repository that holds it (a kept store must not name this machine's
+    directories), else as given."""
+    path = path.resolve()
+    for parent in path.parents:
+        if (parent / ".git").exists():
+            return path.relative_to(parent)
+    return path
 
 
 def _archived(run, dest: Path) -> bool:

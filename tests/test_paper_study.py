@@ -106,6 +106,19 @@ def test_an_unfinished_run_is_copied_without_fields_and_continues_from_the_copy(
     assert before < {r.key for r in rows} and len(rows) == 18          # the rest of the third generation only
 
 
+def test_a_copy_names_itself_within_its_repository_not_by_this_machine_s_path(paper_study, interrupted, tmp_path):
+    """The store's message ("continue with `millfoil resume DIR`") names the copy from the root of the git
+    repository it is kept in, wherever the study and the script ran."""
+    run, _ = interrupted
+    repository = tmp_path / "clone"
+    (repository / ".git").mkdir(parents=True)
+    paper_study.archive(run.parents[1], "medium", ["design_g1"], repository / "runs" / "paper", unfinished=True)
+    kept = repository / "runs" / "paper" / "medium" / "design_g1"
+    with Store(packed_path(kept / STORE_NAME), readonly=True) as store:
+        message = store.campaign().message
+    assert "millfoil resume runs/paper/medium/design_g1" in message and str(tmp_path) not in message
+
+
 def test_a_finished_run_archived_before_is_left_as_it_is(paper_study, interrupted, tmp_path, capsys,
                                                            monkeypatch):
     """Archived, then copied back without the fields its report does not draw and archived again: its front
