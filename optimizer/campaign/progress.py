@@ -146,6 +146,7 @@ def status_of(directory: str | Path) -> dict:
     seconds = [r.wall_seconds for r in rows if r.wall_seconds is not None]
     return {
         "directory": str(directory), "state": row.state, "message": row.message, "started": row.started,
+        "driver": _driver(directory) if row.state == "running" else None,
         "ended": row.ended, "version": row.version, "seed": row.seed,
         "generations": {"done": done, "total": config.algorithm.generations},
         "population": config.algorithm.population, "evaluations": len(rows), "by_status": by_status,
@@ -164,6 +165,15 @@ def status_of(directory: str | Path) -> dict:
         "problem": (config.analytic.problem if config.analytic
                     else f"{config.blade.mode.value} {config.blade.continuity.value}"),
     }
+
+
+def _driver(directory: str | Path) -> dict:
+    """``{"alive": True/False/None, "holder": …}`` of a campaign whose store says it is running: whether a
+    live driver holds its directory (:func:`optimizer.campaign.lock.probe`; None: the lock cannot tell)."""
+    from optimizer.campaign.lock import probe
+
+    alive, holder = probe(directory)
+    return {"alive": alive, "holder": holder}
 
 
 #: Stored evaluations whose pace :func:`remaining` reads, the most recent ones.
@@ -189,13 +199,8 @@ def remaining(planned: int, rows: Sequence[EvaluationRow], generations) -> dict:
 def format_status(s: dict) -> str:
     """``millfoil status`` text of a :func:`status_of` summary."""
     g = s["generations"]
-    state = s["state"]
-    if state == "running" and s.get("last_stored"):
-        # a driver killed outright cannot say so: how long ago the last result came is the hint
-        age = _dt.datetime.now(_dt.UTC) - _dt.datetime.fromisoformat(s["last_stored"])
-        state += f" (last evaluation stored {duration(age.total_seconds())} ago)"
     lines = [
-        f"campaign {s['directory']}: {state}" + (f" ({s['message']})" if s.get("message") else ""),
+        f"campaign {s['directory']}: {_state_text(s)}",
         f"  started {s['started']}" + (f", ended {s['ended']}" if s.get("ended") else "")
         + f"; millfoil {s['version']}, seed {s['seed']}",
         f"  generations {g['done']}/{g['total']} (population {s['population']}); "
@@ -219,6 +224,24 @@ def format_status(s: dict) -> str:
         lines.append(f"  offspring ({s.get('method', 'nsga2')}), generation {last['generation']}: "
                      + search_text(last))
     return "\n".join(lines)
+
+
+def _state_text(s: dict) -> str:
+    """The state of a :func:`status_of` summary in words. A driver killed outright (``kill -9``, a node or
+    job that stopped) cannot record that it stopped, so a store that says "running" is checked against the
+    directory's lock; where the lock cannot tell, how long ago the last result came is the hint."""
+    state, driver = s["state"], s.get("driver") or {}
+    age = ""
+    if s.get("last_stored"):
+        seconds = (_dt.datetime.now(_dt.UTC) - _dt.datetime.fromisoformat(s["last_stored"])).total_seconds()
+        age = f"last evaluation stored {duration(seconds)} ago"
+    if state == "running" and driver.get("alive") is False:
+        return (f"stopped without recording it: no driver holds the directory (killed, or its machine or job "
+                f"ended){'; ' + age if age else ''}; continue with `millfoil resume {s['directory']}`")
+    if state == "running":
+        notes = ([f"driver: {driver['holder']}"] if driver.get("alive") else []) + ([age] if age else [])
+        state += f" ({'; '.join(notes)})" if notes else ""
+    return state + (f" ({s['message']})" if s.get("message") else "")
 
 
 def format_damaged(directory: str | Path, inspection: StoreInspection) -> str:

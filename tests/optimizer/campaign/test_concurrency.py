@@ -175,3 +175,90 @@ def test_two_real_drivers_on_one_directory(tmp_path):
     with Store(run / STORE_NAME, readonly=True) as store:
         assert store.campaign().state == "finished"
         assert len(store.generations()) == 8
+
+
+# ------------------------------------------------------------------ status: is the driver still there?
+def _says_running(run: Path) -> None:
+    """The store of ``run`` set to "running", as a driver killed outright leaves it."""
+    import sqlite3
+    with sqlite3.connect(run / STORE_NAME) as db:
+        db.execute("UPDATE campaign SET state = 'running', ended = NULL, message = NULL")
+
+
+def _status_line(run: Path) -> str:
+    from optimizer.campaign.progress import format_status, status_of
+    return format_status(status_of(run)).splitlines()[0]
+
+
+def test_status_names_the_live_driver_of_a_running_campaign(tmp_path, holder):
+    run, proc = holder
+    run_campaign(campaign(tmp_path), tmp_path / "done")
+    for name in ("campaign.sqlite", "config.yaml"):
+        (run / name).write_bytes((tmp_path / "done" / name).read_bytes())
+    _says_running(run)
+    line = _status_line(run)
+    assert f"running (driver: millfoil run, pid {proc.pid} on " in line and "last evaluation stored" in line
+    with pytest.raises(DirectoryInUse):                      # the probe left the holder's lock as it was
+        DriverLock(run, "resume").acquire()
+
+
+def test_status_tells_a_killed_driver_from_a_running_one(tmp_path, holder):
+    run, proc = holder
+    run_campaign(campaign(tmp_path), tmp_path / "done")
+    for name in ("campaign.sqlite", "config.yaml"):
+        (run / name).write_bytes((tmp_path / "done" / name).read_bytes())
+    _says_running(run)
+    os.kill(proc.pid, signal.SIGKILL)
+    proc.wait()
+    line = _status_line(run)
+    assert "stopped without recording it: no driver holds the directory" in line
+    assert line.endswith(f"continue with `millfoil resume {run}`")
+    assert resume_campaign(run).state == "finished"
+
+
+def test_status_without_a_lock_file_falls_back_to_the_age_of_the_last_result(tmp_path):
+    run = tmp_path / "run"
+    run_campaign(campaign(tmp_path), run)
+    (run / LOCK_NAME).unlink()                               # a copy made without it
+    _says_running(run)
+    line = _status_line(run)
+    assert line.startswith(f"campaign {run}: running (last evaluation stored ") and line.endswith(" ago)")
+
+
+def test_a_probe_in_the_driver_s_own_process_keeps_its_lock(tmp_path):
+    from optimizer.campaign.lock import probe
+    run = tmp_path / "run"
+    with DriverLock(run, "run"):
+        assert probe(run) == (True, f"this process, pid {os.getpid()}")
+        refused = subprocess.run([sys.executable, "-c", "import sys\nfrom optimizer.campaign.lock import "
+                                  "DriverLock\nDriverLock(sys.argv[1], 'resume').acquire()", str(run)],
+                                 capture_output=True, text=True, timeout=60,
+                                 env={**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[3])})
+        assert "DirectoryInUse" in refused.stderr
+    assert probe(run) == (False, "")
+
+
+def test_a_driver_starting_during_a_probe_waits_for_it(tmp_path):
+    """A probe holds a shared lock for an instant; a driver that meets it tries again instead of refusing."""
+    import fcntl
+    run = tmp_path / "run"
+    DriverLock(run, "run").acquire().release()
+    script = ("import sys, time\nfrom optimizer.campaign.lock import DriverLock\nprint('ready', flush=True)\n"
+              "sys.stdin.readline()\nstart = time.monotonic()\nDriverLock(sys.argv[1], 'resume').acquire()\n"
+              "print(time.monotonic() - start, flush=True)\n")
+    driver = subprocess.Popen([sys.executable, "-c", script, str(run)], stdin=subprocess.PIPE,
+                              stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                              env={**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[3])})
+    try:
+        assert driver.stdout.readline().strip() == "ready"
+        with open(run / LOCK_NAME, encoding="utf-8") as handle:
+            fcntl.lockf(handle, fcntl.LOCK_SH | fcntl.LOCK_NB)     # a probe in its instant, drawn out to 0.3 s
+            driver.stdin.write("go\n")
+            driver.stdin.flush()
+            time.sleep(0.3)
+        waited = driver.stdout.readline().strip()
+        assert waited, driver.stderr.read()
+        assert 0.15 < float(waited) < 5.0                          # it met the shared lock and waited for it
+    finally:
+        driver.kill()
+        driver.wait()
