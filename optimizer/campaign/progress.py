@@ -6,9 +6,10 @@ hypervolume, ETA) and leaves one line per finished generation above it; elsewher
 job) it writes only the line per finished generation — a log, not a flood.
 
 :func:`status_of` reads a store (read-only, safe while the campaign runs) into a JSON-able summary, and
-:func:`format_status` / :func:`front_table` turn summaries into text for ``millfoil status`` and the end of
-``millfoil run``; :func:`format_damaged` shows what a damaged store still holds (its
-:class:`~optimizer.campaign.store.StoreInspection`), before ``millfoil status`` says it is damaged.
+:func:`format_status` / :func:`status_table` / :func:`front_table` turn summaries into text for ``millfoil
+status`` (one run, several) and the end of ``millfoil run``; :func:`format_damaged` shows what a damaged
+store still holds (its :class:`~optimizer.campaign.store.StoreInspection`), before ``millfoil status`` says
+it is damaged.
 """
 
 from __future__ import annotations
@@ -242,6 +243,26 @@ def _state_text(s: dict) -> str:
         notes = ([f"driver: {driver['holder']}"] if driver.get("alive") else []) + ([age] if age else [])
         state += f" ({'; '.join(notes)})" if notes else ""
     return state + (f" ({s['message']})" if s.get("message") else "")
+
+
+def status_table(summaries: Sequence[dict], unreadable: Sequence[tuple[str, str]] = ()) -> str:
+    """``millfoil status`` of several runs: one line each (state, generations, evaluations and how many gave
+    values, best objectives, what remains), then a line per run that could not be read (``unreadable``:
+    ``(directory, why)``)."""
+    head = ["run", "state", "generations", "evaluations", "ok", "best", "remaining"]
+    body = []
+    for s in summaries:
+        state = s["state"]
+        if state == "running" and (s.get("driver") or {}).get("alive") is False:
+            state = "stopped (no driver)"
+        left = s.get("remaining") or {}
+        body.append([s["directory"], state, f"{s['generations']['done']}/{s['generations']['total']}",
+                     str(s["evaluations"]), str(s["by_status"].get("ok", 0)),
+                     figures_text(s["best"], s.get("units", {})) or "-",
+                     f"{left['evaluations']}, {duration(left['seconds'])}" if left.get("evaluations") else "-"])
+    widths = [max(len(row[j]) for row in [head, *body]) for j in range(len(head))]
+    lines = ["  ".join(cell.ljust(w) for cell, w in zip(row, widths, strict=True)).rstrip() for row in [head, *body]]
+    return "\n".join(lines + [f"{directory}: unreadable: {why}" for directory, why in unreadable])
 
 
 def format_damaged(directory: str | Path, inspection: StoreInspection) -> str:

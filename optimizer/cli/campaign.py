@@ -63,9 +63,14 @@ def register(sub: argparse._SubParsersAction) -> None:
         help="show a campaign's progress from its store (works while it runs)",
         description="Read RUN/campaign.sqlite (read-only; safe while the campaign runs, from any shell or "
         "node that sees the file) and print its state, generations, evaluations by status and convergence "
-        "class, best objectives and hypervolume.",
+        "class, best objectives and hypervolume. With several runs, or a directory that holds runs (a study "
+        "such as runs/paper), one line per run.",
+        epilog="Examples:\n  millfoil status runs/quickstart\n  millfoil status runs/paper   # every run below it",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    status.add_argument("directory", type=Path, metavar="RUN", help="run directory (holds campaign.sqlite)")
+    status.add_argument("directories", nargs="+", type=Path, metavar="RUN",
+                        help="run directory (holds campaign.sqlite); several, or a directory without a store, "
+                        "for one line per run (its subdirectories' runs, two levels at most)")
     status.add_argument("--json", action="store_true", help="print the summary as JSON")
     status.set_defaults(run=run_status)
 
@@ -193,8 +198,11 @@ def run_resume(args: argparse.Namespace) -> int:
 
 def run_status(args: argparse.Namespace) -> int:
     from optimizer.campaign.progress import format_damaged, format_status, status_of
-    from optimizer.campaign.store import StoreDamaged
+    from optimizer.campaign.store import STORE_NAME, StoreDamaged, stored
 
+    if len(args.directories) > 1 or not stored(args.directories[0] / STORE_NAME) and args.directories[0].is_dir():
+        return _status_of_several(args)
+    args.directory = args.directories[0]
     try:
         summary = status_of(args.directory)
     except FileNotFoundError as exc:
@@ -206,6 +214,34 @@ def run_status(args: argparse.Namespace) -> int:
               if args.json else format_damaged(args.directory, inspection), flush=True)
         raise
     print(json.dumps(summary, indent=2) if args.json else format_status(summary))
+    return EXIT_OK
+
+
+def _status_of_several(args: argparse.Namespace) -> int:
+    """``millfoil status`` of several runs: a line each; exit 2 if any could not be read (named in the table
+    and in one error line), after the others are shown."""
+    from optimizer.campaign.progress import status_of, status_table
+    from optimizer.campaign.store import StoreDamaged
+    from optimizer.report.run import RunError, run_directories
+
+    try:
+        directories = run_directories(args.directories)
+    except RunError as exc:
+        raise ConfigError(str(exc)) from None
+    summaries, unreadable = [], []
+    for directory in directories:
+        try:
+            summaries.append(status_of(directory))
+        except (FileNotFoundError, StoreDamaged) as exc:
+            unreadable.append((str(directory), str(exc).splitlines()[0]))
+    if args.json:
+        print(json.dumps({"runs": summaries, "unreadable": [{"directory": d, "error": e} for d, e in unreadable]},
+                         indent=2))
+    else:
+        print(status_table(summaries, unreadable), flush=True)
+    if unreadable:
+        raise ConfigError(f"{len(unreadable)} of {len(directories)} runs could not be read: "
+                          + "; ".join(d for d, _ in unreadable) + " (`millfoil status RUN` on one says what it holds)")
     return EXIT_OK
 
 

@@ -110,6 +110,38 @@ def test_status_says_what_is_left_until_the_campaign_finishes(tmp_path, zdt1):
     assert "remaining: about 60 evaluations, 10m00s at the recent pace" in format_status(status)
 
 
+def test_status_of_a_study_prints_a_line_per_run_and_names_the_unreadable_ones(tmp_path, zdt1, capsys):
+    study = tmp_path / "study"
+    for name in ("a", "b"):
+        assert main(["run", str(zdt1), "--out", str(study / name), "--set", "algorithm.generations=2"]) == 0
+    (study / "c").mkdir()
+    (study / "c" / "campaign.sqlite").write_text("not a database")
+    capsys.readouterr()
+
+    assert main(["status", str(study / "a"), str(study / "b")]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[0].split() == ["run", "state", "generations", "evaluations", "ok", "best", "remaining"]
+    assert [line.split()[:5] for line in lines[1:]] == [[str(study / n), "finished", "2/2", "16", "16"]
+                                                         for n in ("a", "b")]
+    assert "f1 " in lines[1] and ", f2 " in lines[1] and lines[1].endswith("-")
+
+    assert main(["status", str(study)]) == 2                  # a directory of runs: each below it, two levels at most
+    out, err = capsys.readouterr()
+    assert [line.split()[0] for line in out.splitlines()[1:]] == [str(study / n) for n in "ab"] + [f"{study / 'c'}:"]
+    assert "unreadable:" in out.splitlines()[-1] and "is damaged" in out.splitlines()[-1]
+    assert err.strip() == (f"millfoil: error: 1 of 3 runs could not be read: {study / 'c'} "
+                           "(`millfoil status RUN` on one says what it holds)")
+
+    assert main(["status", str(study / "a"), str(study / "b"), "--json"]) == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert [r["directory"] for r in summary["runs"]] == [str(study / "a"), str(study / "b")]
+    assert summary["unreadable"] == []
+
+    (tmp_path / "empty").mkdir()
+    assert main(["status", str(tmp_path / "empty")]) == 2
+    assert "no campaign store (campaign.sqlite) here or in its subdirectories" in capsys.readouterr().err
+
+
 def test_resume_errors(tmp_path, capsys):
     assert main(["resume", str(tmp_path / "nothing")]) == 2
     assert "no campaign store" in capsys.readouterr().err

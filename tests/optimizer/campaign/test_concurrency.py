@@ -213,6 +213,8 @@ def test_status_tells_a_killed_driver_from_a_running_one(tmp_path, holder):
     line = _status_line(run)
     assert "stopped without recording it: no driver holds the directory" in line
     assert line.endswith(f"continue with `millfoil resume {run}`")
+    from optimizer.campaign.progress import status_of, status_table
+    assert status_table([status_of(run)]).splitlines()[1].split()[1:4] == ["stopped", "(no", "driver)"]
     assert resume_campaign(run).state == "finished"
 
 
