@@ -221,7 +221,6 @@ def _status_of_several(args: argparse.Namespace) -> int:
     """``millfoil status`` of several runs: a line each; exit 2 if any could not be read (named in the table
     and in one error line), after the others are shown."""
     from optimizer.campaign.progress import status_of, status_table
-    from optimizer.campaign.store import StoreDamaged
     from optimizer.report.run import RunError, run_directories
 
     try:
@@ -232,7 +231,7 @@ def _status_of_several(args: argparse.Namespace) -> int:
     for directory in directories:
         try:
             summaries.append(status_of(directory))
-        except (FileNotFoundError, StoreDamaged) as exc:
+        except (OSError, ConfigError, RuntimeError, ValueError) as exc:   # a damaged store, a newer schema, …
             unreadable.append((str(directory), str(exc).splitlines()[0]))
     if args.json:
         print(json.dumps({"runs": summaries, "unreadable": [{"directory": d, "error": e} for d, e in unreadable]},
