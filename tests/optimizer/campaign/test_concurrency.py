@@ -178,9 +178,13 @@ def test_two_real_drivers_on_one_directory(tmp_path):
 
 
 # ------------------------------------------------------------------ status: is the driver still there?
-def _says_running(run: Path) -> None:
-    """The store of ``run`` set to "running", as a driver killed outright leaves it."""
+def _says_running(tmp_path: Path, run: Path) -> None:
+    """A finished campaign's store and configuration in ``run``, its state set back to "running", as a driver
+    killed outright leaves it."""
     import sqlite3
+    run_campaign(campaign(tmp_path), tmp_path / "done")
+    for name in (STORE_NAME, "config.yaml"):
+        (run / name).write_bytes((tmp_path / "done" / name).read_bytes())
     with sqlite3.connect(run / STORE_NAME) as db:
         db.execute("UPDATE campaign SET state = 'running', ended = NULL, message = NULL")
 
@@ -192,10 +196,7 @@ def _status_line(run: Path) -> str:
 
 def test_status_names_the_live_driver_of_a_running_campaign(tmp_path, holder):
     run, proc = holder
-    run_campaign(campaign(tmp_path), tmp_path / "done")
-    for name in ("campaign.sqlite", "config.yaml"):
-        (run / name).write_bytes((tmp_path / "done" / name).read_bytes())
-    _says_running(run)
+    _says_running(tmp_path, run)
     line = _status_line(run)
     assert f"running (driver: millfoil run, pid {proc.pid} on " in line and "last evaluation stored" in line
     with pytest.raises(DirectoryInUse):                      # the probe left the holder's lock as it was
@@ -204,10 +205,7 @@ def test_status_names_the_live_driver_of_a_running_campaign(tmp_path, holder):
 
 def test_status_tells_a_killed_driver_from_a_running_one(tmp_path, holder):
     run, proc = holder
-    run_campaign(campaign(tmp_path), tmp_path / "done")
-    for name in ("campaign.sqlite", "config.yaml"):
-        (run / name).write_bytes((tmp_path / "done" / name).read_bytes())
-    _says_running(run)
+    _says_running(tmp_path, run)
     os.kill(proc.pid, signal.SIGKILL)
     proc.wait()
     line = _status_line(run)
@@ -220,9 +218,8 @@ def test_status_tells_a_killed_driver_from_a_running_one(tmp_path, holder):
 
 def test_status_without_a_lock_file_falls_back_to_the_age_of_the_last_result(tmp_path):
     run = tmp_path / "run"
-    run_campaign(campaign(tmp_path), run)
-    (run / LOCK_NAME).unlink()                               # a copy made without it
-    _says_running(run)
+    run.mkdir()
+    _says_running(tmp_path, run)                             # a copy made without a lock file
     line = _status_line(run)
     assert line.startswith(f"campaign {run}: running (last evaluation stored ") and line.endswith(" ago)")
 
