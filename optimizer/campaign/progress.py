@@ -236,13 +236,18 @@ def _state_text(s: dict) -> str:
     if s.get("last_stored"):
         seconds = (_dt.datetime.now(_dt.UTC) - _dt.datetime.fromisoformat(s["last_stored"])).total_seconds()
         age = f"last evaluation stored {duration(seconds)} ago"
-    if state == "running" and driver.get("alive") is False:
+    if _driver_gone(s):
         return (f"stopped without recording it: no driver holds the directory (killed, or its machine or job "
                 f"ended){'; ' + age if age else ''}; continue with `millfoil resume {s['directory']}`")
     if state == "running":
         notes = ([f"driver: {driver['holder']}"] if driver.get("alive") else []) + ([age] if age else [])
         state += f" ({'; '.join(notes)})" if notes else ""
     return state + (f" ({s['message']})" if s.get("message") else "")
+
+
+def _driver_gone(s: dict) -> bool:
+    """Whether the store of summary ``s`` says "running" while no driver holds its directory."""
+    return s["state"] == "running" and (s.get("driver") or {}).get("alive") is False
 
 
 def status_table(summaries: Sequence[dict], unreadable: Sequence[tuple[str, str]] = ()) -> str:
@@ -252,13 +257,11 @@ def status_table(summaries: Sequence[dict], unreadable: Sequence[tuple[str, str]
     head = ["run", "state", "generations", "evaluations", "ok", "best", "remaining"]
     body = []
     for s in summaries:
-        state = s["state"]
-        if state == "running" and (s.get("driver") or {}).get("alive") is False:
-            state = "stopped (no driver)"
+        state = "stopped (no driver)" if _driver_gone(s) else s["state"]
         left = s.get("remaining") or {}
         body.append([s["directory"], state, f"{s['generations']['done']}/{s['generations']['total']}",
                      str(s["evaluations"]), str(s["by_status"].get("ok", 0)),
-                     figures_text(s["best"], s.get("units", {})) or "-",
+                     figures_text(s["best"], s.get("units", {})),
                      f"{left['evaluations']}, {duration(left['seconds'])}" if left.get("evaluations") else "-"])
     widths = [max(len(row[j]) for row in [head, *body]) for j in range(len(head))]
     lines = ["  ".join(cell.ljust(w) for cell, w in zip(row, widths, strict=True)).rstrip() for row in [head, *body]]

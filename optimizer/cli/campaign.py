@@ -200,18 +200,18 @@ def run_status(args: argparse.Namespace) -> int:
     from optimizer.campaign.progress import format_damaged, format_status, status_of
     from optimizer.campaign.store import STORE_NAME, StoreDamaged, stored
 
-    if len(args.directories) > 1 or not stored(args.directories[0] / STORE_NAME) and args.directories[0].is_dir():
+    directory = args.directories[0]
+    if len(args.directories) > 1 or directory.is_dir() and not stored(directory / STORE_NAME):
         return _status_of_several(args)
-    args.directory = args.directories[0]
     try:
-        summary = status_of(args.directory)
+        summary = status_of(directory)
     except FileNotFoundError as exc:
         raise ConfigError(str(exc)) from None
     except StoreDamaged as exc:
         # what can still be read first, as a database tool shows it; then the one-line error (exit 2)
         inspection = exc.inspection
-        print(json.dumps({"directory": str(args.directory), "damaged": inspection.to_dict()}, indent=2)
-              if args.json else format_damaged(args.directory, inspection), flush=True)
+        print(json.dumps({"directory": str(directory), "damaged": inspection.to_dict()}, indent=2)
+              if args.json else format_damaged(directory, inspection), flush=True)
         raise
     print(json.dumps(summary, indent=2) if args.json else format_status(summary))
     return EXIT_OK
