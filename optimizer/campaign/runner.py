@@ -56,6 +56,8 @@ import logging
 import math
 import os
 import re
+import signal
+import threading
 import time
 import traceback
 import uuid
@@ -167,7 +169,16 @@ class Runner(ABC):
         self.clock = clock
 
     def __enter__(self) -> Runner:
-        self.start()
+        try:
+            self.start()
+        except BaseException:
+            # what did start (a cluster, its client) is stopped; the start's failure or interrupt is what
+            # the caller must see, not a second error from stopping a half-started runner
+            try:
+                self.close()
+            except Exception:
+                pass
+            raise
         return self
 
     def __exit__(self, *exc_info) -> None:
@@ -248,8 +259,6 @@ async def _kill_worker_process(dask_worker=None) -> None:
     replaced at once, as after any worker crash. A coroutine: ``Client.run(..., wait=False)`` takes only
     those.
     """
-    import signal
-
     os.kill(os.getpid(), signal.SIGKILL)
 
 
@@ -294,7 +303,7 @@ class DaskRunner(Runner):
         import dask
         from distributed import Client
 
-        with dask.config.set(self.SCHEDULER_CONFIG):
+        with dask.config.set(self.SCHEDULER_CONFIG), _signals_held():
             self.cluster = self._make_cluster()
         self.client = Client(self.cluster if self.cluster is not None else self._address())
         self.client.subscribe_topic(START_TOPIC, self._on_start)
@@ -508,22 +517,20 @@ class LocalRunner(DaskRunner):
         from distributed import LocalCluster
 
         n = self.config.workers or len(os.sched_getaffinity(0))
-        # Ctrl-C in a terminal reaches the whole process group, and only the driver answers it (it stores,
-        # marks the run interrupted and closes the cluster): the workers are started ignoring SIGINT,
-        # which they inherit, and a worker restarted later ignores it from its plugin
         # the in-process scheduler's INFO lines (a comm closed as a worker stops) are noise to a user
         logging.getLogger("distributed").setLevel(logging.WARNING)
-        with _ignoring_sigint():
-            # dashboard_address=None would still serve the dashboard on port 8787: no dashboard, no fixed port
-            return LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=":0",
-                                scheduler_kwargs={"dashboard": False}, silence_logs=logging.CRITICAL,
-                                env=dict(PINNED_THREADS_ENV))
+        # dashboard_address=None would still serve the dashboard on port 8787: no dashboard, no fixed port
+        # (the workers start with SIGINT blocked, see _signals_held, and their plugin ignores it)
+        return LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=":0",
+                            scheduler_kwargs={"dashboard": False}, silence_logs=logging.CRITICAL,
+                            env=dict(PINNED_THREADS_ENV))
 
     def start(self) -> None:
         from distributed import WorkerPlugin
 
         class IgnoreSigint(WorkerPlugin):
-            """The worker process ignores SIGINT (see :meth:`LocalRunner._make_cluster`)."""
+            """The worker process ignores SIGINT: Ctrl-C reaches the whole process group, and only the
+            driver answers it (a worker started with the cluster also has it blocked, see _signals_held)."""
 
             def setup(self, worker=None) -> None:
                 import signal
@@ -537,19 +544,43 @@ class LocalRunner(DaskRunner):
 
 
 @contextmanager
-def _ignoring_sigint():
-    """SIGINT ignored in this process while the block starts child processes (they inherit it)."""
-    import signal
-    import threading
+def _signals_held() -> Iterator[None]:
+    """SIGINT and SIGTERM held while the block runs and acted on when it ends, as if they arrived then.
 
+    A cluster cut short in its start (Ctrl-C, a batch system's SIGTERM in the first seconds of a campaign)
+    can be neither used nor closed, and dask's exit hook then fails on it: the start is let finish, then
+    the runner stops the cluster. SIGINT is also blocked, so that the threads dask starts meanwhile, and
+    the worker processes they start, inherit it blocked: Ctrl-C in a terminal reaches the whole process
+    group, and only the driver answers it (it stores, marks the run interrupted and closes the cluster).
+    A blocked signal stays pending, where one ignored (SIG_IGN) would be lost. Off the main thread,
+    signals are left alone.
+    """
     if threading.current_thread() is not threading.main_thread():
         yield
         return
-    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    noted: list[int] = []
+    previous = {signum: signal.signal(signum, lambda signum, frame: noted.append(signum))
+                for signum in (signal.SIGINT, signal.SIGTERM) if signal.getsignal(signum) is not signal.SIG_IGN}
+    _start_resource_tracker()
+    signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
     try:
         yield
     finally:
-        signal.signal(signal.SIGINT, previous)
+        for signum, handler in previous.items():
+            signal.signal(signum, handler)
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})   # a pending Ctrl-C is delivered here
+        for signum in dict.fromkeys(noted):
+            signal.raise_signal(signum)
+
+
+def _start_resource_tracker() -> None:
+    """multiprocessing's resource tracker started from this thread.
+
+    It starts with the first process started by ``spawn``, and unblocks SIGINT in the thread that starts it;
+    from one of dask's threads, the workers that thread starts would then answer Ctrl-C."""
+    from multiprocessing import resource_tracker
+
+    resource_tracker.ensure_running()
 
 
 class SchedulerRunner(DaskRunner):

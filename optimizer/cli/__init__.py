@@ -58,6 +58,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         # the command has stopped: a second signal on the way out (Ctrl-C pressed twice, a group's
         # signal arriving late) must not turn exit status 130 into death by the signal
         _handle_signals(lambda signum, frame: None)
+        _forget_interrupted_evaluation()
         return EXIT_INTERRUPTED
     except BrokenPipeError:
         # the reader of the output has gone (`| head`): stop quietly, as a Unix tool stopped by SIGPIPE does,
@@ -66,7 +67,20 @@ def main(argv: Sequence[str] | None = None) -> int:
         return EXIT_PIPE
     for signum, handler in previous.items():
         signal.signal(signum, handler)
+    if code == EXIT_INTERRUPTED:
+        _forget_interrupted_evaluation()
     return code
+
+
+def _forget_interrupted_evaluation() -> None:
+    """Keep exit status 130 under ``python -m optimizer.cli`` after an interrupt.
+
+    CPython (3.8 to at least 3.12) ends a ``-m`` run by SIGINT, whatever its exit status, when a
+    KeyboardInterrupt ended any string ``exec``/``eval`` during the run — a dataclass or named tuple being
+    built as the signal arrived — even one caught afterwards. A string evaluation that ends normally clears
+    that mark.
+    """
+    exec("pass", {})
 
 
 def _discard_stdout() -> None:

@@ -5,12 +5,18 @@ from __future__ import annotations
 import csv
 import io
 import json
+import os
+import subprocess
+import sys
+from pathlib import Path
 
 import pytest
 
 from optimizer.campaign.driver import GenerationProgress
 from optimizer.campaign.progress import ProgressDisplay, format_status, progress_line, remaining, status_of
 from optimizer.cli import main
+
+ROOT = Path(__file__).resolve().parents[3]
 
 ZDT1 = "analytic: {problem: zdt1, variables: 4}\nalgorithm: {population: 8, generations: 3, seed: 1}\n" \
        "execution: {backend: inline}\noutput: {sync: normal}\n"
@@ -184,3 +190,21 @@ def test_run_creates_a_missing_chain_of_directories(tmp_path, zdt1):
     run = tmp_path / "a" / "b" / "run"
     assert main(["run", str(zdt1), "--out", str(run), "--quiet"]) == 0
     assert (run / "campaign.sqlite").is_file()
+
+
+def test_an_interrupt_inside_a_string_evaluation_still_exits_130_under_python_m(tmp_path):
+    """CPython ends a ``-m`` run by SIGINT, whatever its exit status, once a KeyboardInterrupt ended a
+    string exec (a dataclass being built as Ctrl-C arrives), even one caught: main keeps 130."""
+    probe = tmp_path / "probe"
+    probe.mkdir()
+    (probe / "__main__.py").write_text(
+        "import sys\n"
+        "import optimizer.cli as cli\n"
+        "def interrupted(parser, argv):\n"
+        "    exec('raise KeyboardInterrupt', {})\n"
+        "cli._main = interrupted\n"
+        "sys.exit(cli.main(['status']))\n")
+    done = subprocess.run([sys.executable, "-m", "probe"], cwd=tmp_path, capture_output=True, text=True,
+                          env={**os.environ, "PYTHONPATH": str(ROOT)}, timeout=60)
+    assert done.returncode == 130, done.stderr
+    assert done.stderr.strip() == "millfoil: interrupted"

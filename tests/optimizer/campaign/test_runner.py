@@ -10,8 +10,12 @@ injected clock, so a busy machine makes them slower, never wrong.
 from __future__ import annotations
 
 import math
+import multiprocessing
+import os
+import signal
 import threading
 import time
+from pathlib import Path
 
 import pytest
 from pydantic import ValidationError
@@ -23,6 +27,7 @@ from optimizer.campaign.runner import (
     ExecutionConfig,
     InlineRunner,
     Task,
+    _signals_held,
     make_runner,
     walltime_seconds,
 )
@@ -253,3 +258,62 @@ def test_a_task_past_its_timeout_is_yielded_as_timeout_and_the_others_finish(thr
     assert "timeout of 60 s" in results["k0"].reason and results["k0"].worker
     assert results["k0"].seconds > 60       # measured on the runner's clock from its start on the worker
     assert results["k1"].status == results["k2"].status == "done"
+
+
+# ---- signals while a cluster starts ------------------------------------------------------------------
+
+def _sigint_blocked(pid: int) -> bool:
+    """Whether process ``pid`` has SIGINT blocked (Linux: the SigBlk mask of /proc/PID/status)."""
+    for line in open(f"/proc/{pid}/status"):
+        if line.startswith("SigBlk:"):
+            return bool(int(line.split()[1], 16) >> (signal.SIGINT - 1) & 1)
+    raise AssertionError(f"no SigBlk line for {pid}")
+
+
+@pytest.fixture
+def raising_sigterm():
+    """SIGTERM raises KeyboardInterrupt, as under the driver; the previous handler restored afterwards."""
+    def handler(signum, frame):
+        raise KeyboardInterrupt(f"signal {signum}")
+
+    previous = signal.signal(signal.SIGTERM, handler)
+    yield
+    signal.signal(signal.SIGTERM, previous)
+
+
+@pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM], ids=["SIGINT", "SIGTERM"])
+def test_a_signal_while_the_cluster_starts_is_acted_on_once_it_has(raising_sigterm, signum):
+    stages = []
+    with pytest.raises(KeyboardInterrupt):
+        with _signals_held():
+            os.kill(os.getpid(), signum)
+            time.sleep(0.05)            # a handler would have run by now
+            stages.append("the start went on")
+        stages.append("not reached")
+    assert stages == ["the start went on"]
+    assert not signal.sigpending() and signal.SIGINT not in signal.pthread_sigmask(signal.SIG_BLOCK, [])
+
+
+@pytest.mark.skipif(not Path("/proc/self/status").exists(), reason="reads signal masks from /proc")
+def test_processes_started_with_the_cluster_have_sigint_blocked_and_the_driver_not_after():
+    """The workers are started from threads of dask's, by multiprocessing's spawn: they inherit SIGINT
+    blocked (Ctrl-C reaches the whole process group; only the driver answers it)."""
+    children = []
+
+    def start_one():
+        child = multiprocessing.get_context("spawn").Process(target=time.sleep, args=(30,))
+        child.start()
+        children.append(child)
+
+    with _signals_held():
+        for _ in range(2):              # the first start may start the resource tracker as well
+            thread = threading.Thread(target=start_one)
+            thread.start()
+            thread.join()
+    try:
+        assert [_sigint_blocked(c.pid) for c in children] == [True, True]
+        assert not _sigint_blocked(os.getpid())
+    finally:
+        for child in children:
+            child.kill()
+            child.join()

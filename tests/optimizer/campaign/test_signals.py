@@ -64,7 +64,7 @@ def test_a_signal_to_the_process_group_mid_campaign(tmp_path, signum):
         assert s.campaign().state == "interrupted"
 
 
-@pytest.mark.parametrize("delay", [0.1, 0.4, 0.8])
+@pytest.mark.parametrize("delay", [0.1, 0.4, 0.8, 1.5])
 @pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM], ids=["SIGINT", "SIGTERM"])
 def test_a_signal_while_the_command_starts(tmp_path, signum, delay):
     (tmp_path / "c.yaml").write_text(CONFIG)
