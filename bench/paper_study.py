@@ -1,9 +1,9 @@
 """The paper's study: its eight cases (``configs/paper/{design,toolpath}_{g1,c1,g2,c2}.yaml``) run as ordinary
 campaigns, one after the other, at one mesh level, with the surrogate-assisted NSGA-II; then what each cost.
 
-Each case is ``millfoil run configs/paper/<case>.yaml --out OUT/<level>/<case> --set mesh.level=<level> --set
-algorithm.method=surrogate`` (the paper's population 100 and 50 generations: 100 + 49 × 20 = 1 080 CFD
-evaluations); a case that was interrupted is continued with ``millfoil resume``, a finished one is left
+Each case is ``millfoil run configs/paper/<case>.yaml --out OUT/<level>/<case> --set mesh.level=<level>`` (the
+configs' surrogate-assisted NSGA-II at the paper's population 100 and 50 generations: 100 + 49 × 20 = 1 080
+CFD evaluations); a case that was interrupted is continued with ``millfoil resume``, a finished one is left
 alone, so the study spans sessions (the stores are the state). ``--report-only`` prints, per case, the
 state, the CFD evaluations (failed ones included), the CPU hours of the workers and the wall time
 (:func:`busy_hours`: the hours during which an evaluation ran, plus the driver's model fitting and
@@ -51,7 +51,7 @@ def run_case(case: str, level: str, directory: Path, workers: int | None, settin
     if stored(store):
         command = [*cli, "resume", str(directory), *(a for kv in execution for a in ("--set", kv))]
     else:
-        overrides = [f"mesh.level={level}", "algorithm.method=surrogate", *settings, *execution]
+        overrides = [f"mesh.level={level}", *settings, *execution]
         command = [*cli, "run", str(ROOT / "configs" / "paper" / f"{case}.yaml"), "--out", str(directory),
                    *(a for kv in overrides for a in ("--set", kv))]
     print(" ".join(command[1:]), file=sys.stderr, flush=True)
