@@ -559,8 +559,9 @@ def _signals_held() -> Iterator[None]:
         yield
         return
     noted: list[int] = []
+    # an ignored signal stays ignored; one whose handler was not set from Python (None) is left as it is
     previous = {signum: signal.signal(signum, lambda signum, frame: noted.append(signum))
-                for signum in (signal.SIGINT, signal.SIGTERM) if signal.getsignal(signum) is not signal.SIG_IGN}
+                for signum in (signal.SIGINT, signal.SIGTERM) if signal.getsignal(signum) not in (signal.SIG_IGN, None)}
     _start_resource_tracker()
     signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
     try:
