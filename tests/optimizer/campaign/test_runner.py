@@ -271,18 +271,20 @@ def _sigint_blocked(pid: int) -> bool:
 
 
 @pytest.fixture
-def raising_sigterm():
-    """SIGTERM raises KeyboardInterrupt, as under the driver; the previous handler restored afterwards."""
+def interrupting_signals():
+    """SIGINT and SIGTERM raise KeyboardInterrupt, as under the driver (SIGINT may have been ignored by
+    whoever started the suite in the background); the previous handlers restored afterwards."""
     def handler(signum, frame):
         raise KeyboardInterrupt(f"signal {signum}")
 
-    previous = signal.signal(signal.SIGTERM, handler)
+    previous = {signum: signal.signal(signum, handler) for signum in (signal.SIGINT, signal.SIGTERM)}
     yield
-    signal.signal(signal.SIGTERM, previous)
+    for signum, handler in previous.items():
+        signal.signal(signum, handler)
 
 
 @pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM], ids=["SIGINT", "SIGTERM"])
-def test_a_signal_while_the_cluster_starts_is_acted_on_once_it_has(raising_sigterm, signum):
+def test_a_signal_while_the_cluster_starts_is_acted_on_once_it_has(interrupting_signals, signum):
     stages = []
     with pytest.raises(KeyboardInterrupt):
         with _signals_held():
