@@ -562,7 +562,11 @@ def _signals_held() -> Iterator[None]:
     # an ignored signal stays ignored; one whose handler was not set from Python (None) is left as it is
     previous = {signum: signal.signal(signum, lambda signum, frame: noted.append(signum))
                 for signum in (signal.SIGINT, signal.SIGTERM) if signal.getsignal(signum) not in (signal.SIG_IGN, None)}
-    _start_resource_tracker()
+    # multiprocessing's resource tracker starts with the first spawned process and unblocks SIGINT in the
+    # thread that starts it: started here, not from a dask thread whose later workers would answer Ctrl-C
+    from multiprocessing import resource_tracker
+
+    resource_tracker.ensure_running()
     signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
     try:
         yield
@@ -572,16 +576,6 @@ def _signals_held() -> Iterator[None]:
         signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})   # a pending Ctrl-C is delivered here
         for signum in dict.fromkeys(noted):
             signal.raise_signal(signum)
-
-
-def _start_resource_tracker() -> None:
-    """multiprocessing's resource tracker started from this thread.
-
-    It starts with the first process started by ``spawn``, and unblocks SIGINT in the thread that starts it;
-    from one of dask's threads, the workers that thread starts would then answer Ctrl-C."""
-    from multiprocessing import resource_tracker
-
-    resource_tracker.ensure_running()
 
 
 class SchedulerRunner(DaskRunner):
