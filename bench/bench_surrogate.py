@@ -21,6 +21,7 @@ population of 50, then batches of 10), the IGD of the archive's front against ZD
     python bench/bench_surrogate.py --cases zdt1 mw3 --seeds 3 --failures none
     python bench/bench_surrogate.py --cases mw1 mw2 --kernel additive       # the surrogate with the additive kernel
     python bench/bench_surrogate.py --cases mw1 --kernel additive --coordinate-search
+    python bench/bench_surrogate.py --cases mw1 --kernel warped --coordinate-search
     python bench/bench_surrogate.py --report-only --json docs/figures/surrogate.json
     python bench/bench_surrogate.py --igd-only --kernel additive --coordinate-search   # pysamoo's budget only
 """
@@ -148,9 +149,10 @@ def main() -> int:
     from optimizer.campaign.config import KERNELS
 
     parser.add_argument("--kernel", choices=KERNELS, default="product",
-                        help="the surrogate's algorithm.surrogate.kernel (additive: runs named surrogate-additive-N)")
+                        help="the surrogate's algorithm.surrogate.kernel (additive: runs named surrogate-additive-N, "
+                        "warped: surrogate-warped-N)")
     parser.add_argument("--coordinate-search", action="store_true",
-                        help="algorithm.surrogate.coordinate_search (runs named surrogate[-additive]-coordinate-N)")
+                        help="algorithm.surrogate.coordinate_search (runs named surrogate[-KERNEL]-coordinate-N)")
     parser.add_argument("--igd-only", action="store_true",
                         help="run and report only the pysamoo-budget runs (ZDT1, 10 variables, 200 evaluations)")
     args = parser.parse_args()
@@ -158,7 +160,7 @@ def main() -> int:
     settings = {"kernel": args.kernel} if args.kernel != "product" else {}
     if args.coordinate_search:
         settings["coordinate_search"] = True
-    name = "-".join(["surrogate", *(["additive"] if args.kernel == "additive" else []),
+    name = "-".join(["surrogate", *([args.kernel] if args.kernel != "product" else []),
                      *(["coordinate"] if args.coordinate_search else [])])
     surrogate = {**METHODS["surrogate"], "surrogate": settings} if settings else METHODS["surrogate"]
     runs = {"plain": ("plain", METHODS["plain"]), "surrogate": (name, surrogate)}

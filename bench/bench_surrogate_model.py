@@ -1,5 +1,6 @@
 """How well the surrogate's Gaussian processes rank the designs a search goes on to evaluate: the product
-kernel alone against the product plus the additive term (``optimizer/campaign/additive.py``).
+kernel alone against the product plus the additive term, plain or warped (``optimizer/campaign/additive.py``;
+``--kernels`` chooses among them).
 
 Protocol, per run: the models are fitted as a campaign fits them (at most 200 designs, those of best
 constrained non-dominated rank, scaled to the unit box, ``normalize_y``, the bounded L-BFGS-B fit) on the
@@ -14,6 +15,7 @@ plain NSGA-II to 5 000; coarse tool path G1, the surrogate's 1 080).
 
     python bench/bench_surrogate_model.py                        # every analytic case and both blade stores
     python bench/bench_surrogate_model.py --cases mw1 mw2 --no-blade
+    python bench/bench_surrogate_model.py --cases mw1 --no-blade --kernels additive warped
 """
 
 from __future__ import annotations
@@ -89,7 +91,7 @@ def training_rows(F: np.ndarray, G: np.ndarray) -> np.ndarray:
     return np.lexsort((-np.arange(len(F)), rank))[:CAP]
 
 
-def compare(name: str, X, F, G, labels) -> None:
+def compare(name: str, X, F, G, labels, kernels) -> None:
     from optimizer.campaign.surrogate import _regressor
 
     split = len(X) // 5
@@ -98,11 +100,11 @@ def compare(name: str, X, F, G, labels) -> None:
     Y = np.column_stack([F, G])
     for j, label in enumerate(labels):
         cells = []
-        for additive in (False, True):          # the campaign's own regressor, cold (no stored hyperparameters)
+        for kernel in kernels:                  # the campaign's own regressor, cold (no stored hyperparameters)
             t0 = time.perf_counter()
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
-                gp = _regressor(X.shape[1], None, additive).fit(X[train], Y[train, j])
+                gp = _regressor(X.shape[1], None, kernel).fit(X[train], Y[train, j])
             seconds = time.perf_counter() - t0
             rho = spearmanr(gp.predict(X[test]), Y[test, j])[0]
             cells.append(f"{rho:.3f} | {gp.log_marginal_likelihood_value_:.1f} | {seconds:.1f}")
@@ -110,20 +112,23 @@ def compare(name: str, X, F, G, labels) -> None:
 
 
 def main() -> None:
+    from optimizer.campaign.config import KERNELS
+
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--cases", nargs="+", default=list(VARIABLES), choices=list(VARIABLES))
     parser.add_argument("--no-blade", action="store_true", help="leave out the kept blade stores")
+    parser.add_argument("--kernels", nargs="+", default=["product", "additive"], choices=KERNELS,
+                        help="algorithm.surrogate.kernel values to compare")
     args = parser.parse_args()
     print(f"# surrogate models out of sample; machine {platform.node()}, {len(__import__('os').sched_getaffinity(0))} "
           f"cores; train: best {CAP} of the first fifth, test: up to {TEST} of the rest")
-    print("| run | target | product: Spearman | log-likelihood | fit s | product + additive: Spearman | "
-          "log-likelihood | fit s |")
-    print("|---|---|---|---|---|---|---|---|")
+    print("| run | target | " + " | ".join(f"{k}: Spearman | log-likelihood | fit s" for k in args.kernels) + " |")
+    print("|---|---|" + "---|---|---|" * len(args.kernels))
     for case in args.cases:
-        compare(case, *analytic_run(case))
+        compare(case, *analytic_run(case), args.kernels)
     if not args.no_blade:
         for case, path in BLADE.items():
-            compare(case, *blade_run(ROOT / path))
+            compare(case, *blade_run(ROOT / path), args.kernels)
 
 
 if __name__ == "__main__":

@@ -10,6 +10,9 @@ every fit:
   (:class:`~optimizer.campaign.additive.AdditiveMatern`): a variance and a length scale per variable for
   effects of one variable at a time, which the product term learns only from designs near each other in
   every variable at once, and which it therefore misses in many variables with a few hundred designs;
+* with ``kernel: warped`` instead, the same additive terms on each variable after a fitted monotone warping
+  of its range (:class:`~optimizer.campaign.additive.WarpedAdditiveMatern`): one-variable effects that are
+  flat over most of a variable's range and steep in a corner of it;
 * white noise, for the solver's scatter;
 
 and a Gaussian-process classifier of **failure** — a design that does not give usable values
@@ -83,15 +86,17 @@ def _optimizer(iterations: int):
     return run
 
 
-def _regressor(d: int, theta: Sequence[float] | None, additive: bool):
+def _regressor(d: int, theta: Sequence[float] | None, kernel_name: str):
     from sklearn.gaussian_process import GaussianProcessRegressor
     from sklearn.gaussian_process.kernels import ConstantKernel, Matern, WhiteKernel
 
-    from optimizer.campaign.additive import AdditiveMatern
+    from optimizer.campaign.additive import AdditiveMatern, WarpedAdditiveMatern
 
     kernel = ConstantKernel(1.0, (1e-3, 1e3)) * Matern(np.full(d, 0.5), (1e-3, 1e2), nu=2.5)
-    if additive:
+    if kernel_name == "additive":
         kernel = kernel + AdditiveMatern(np.full(d, 0.1), np.full(d, 0.3))
+    elif kernel_name == "warped":
+        kernel = kernel + WarpedAdditiveMatern(np.full(d, 0.1), np.full(d, 0.3), np.ones(d), np.ones(d))
     kernel = kernel + WhiteKernel(1e-4, (1e-8, 1e-1))
     if theta is not None and len(theta) == len(kernel.theta):
         kernel = kernel.clone_with_theta(np.clip(np.asarray(theta, float), *kernel.bounds.T))
@@ -102,7 +107,7 @@ class Models:
     """The fitted models of one generation (see the module docstring).
 
     lower, upper: the design box; labels: names of the modelled objectives and constraints (for the
-    stored hyperparameters); kernel: ``product`` or ``additive`` (``algorithm.surrogate.kernel``, the
+    stored hyperparameters); kernel: ``product``, ``additive`` or ``warped`` (``algorithm.surrogate.kernel``, the
     module docstring); theta: ``{label: log-hyperparameters}`` to warm-start from.
     """
 
@@ -111,7 +116,7 @@ class Models:
         if kernel not in KERNELS:
             raise ValueError(f"kernel must be one of {KERNELS}, not {kernel!r}")
         self.lower, self.upper = np.asarray(lower, float), np.asarray(upper, float)
-        self.additive = kernel == "additive"
+        self.kernel = kernel
         self.objectives, self.constraints = tuple(objectives), tuple(constraints)
         self._regressors: dict[str, object] = {}
         self._classifier = None
@@ -138,7 +143,7 @@ class Models:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")        # convergence warnings of a bounded fit: expected
             for label, y in targets:
-                model = _regressor(X.shape[1], theta.get(label), self.additive)
+                model = _regressor(X.shape[1], theta.get(label), self.kernel)
                 self._regressors[label] = model.fit(X, y)
             self._fit_classifier(data, cap, theta.get("failure"))
         return self

@@ -1,6 +1,8 @@
 """The additive Matérn kernel: its values are the sum of one-column Matérn 5/2 kernels, its gradient is the
 derivative in the log-hyperparameters, and in the surrogate it lets a model of one-variable effects find
-the minimum of a response that no training design comes near."""
+the minimum of a response that no training design comes near. The warped kernel: the same terms after the
+Kumaraswamy warping of each variable, an exact gradient in all its log-hyperparameters, and a fit that finds
+a steep corner of a variable's range."""
 
 from __future__ import annotations
 
@@ -8,7 +10,7 @@ import numpy as np
 import pytest
 from sklearn.gaussian_process.kernels import Matern
 
-from optimizer.campaign.additive import AdditiveMatern
+from optimizer.campaign.additive import AdditiveMatern, WarpedAdditiveMatern
 from optimizer.campaign.surrogate import Models, TrainingData
 
 VARIANCES = np.array([0.5, 1.0, 2.0])
@@ -53,3 +55,63 @@ def test_a_model_of_one_variable_effects_finds_a_minimum_no_design_came_near():
     assert wells(X).min() > 4.0
     assert product.predict(centre[None]).mean[0, 0] > 3.0
     assert additive.predict(centre[None]).mean[0, 0] < 1.0
+
+
+WARP_A = np.array([2.0, 0.7, 5.0])
+WARP_B = np.array([1.5, 0.8, 3.0])
+
+
+def test_the_warped_kernel_is_the_additive_kernel_of_the_warped_inputs():
+    rng = np.random.default_rng(2)
+    X, Y = rng.random((7, 3)), rng.random((4, 3))
+    kernel = WarpedAdditiveMatern(VARIANCES, LENGTHS, WARP_A, WARP_B)
+    warp = lambda Z: 1.0 - (1.0 - Z**WARP_A) ** WARP_B  # noqa: E731
+    assert kernel(X, Y) == pytest.approx(AdditiveMatern(VARIANCES, LENGTHS)(warp(X), warp(Y)), abs=1e-14)
+    unwarped = WarpedAdditiveMatern(VARIANCES, LENGTHS, np.ones(3), np.ones(3))
+    assert unwarped(X, Y) == pytest.approx(AdditiveMatern(VARIANCES, LENGTHS)(X, Y), abs=1e-12)
+    assert kernel.diag(X) == pytest.approx(np.diag(kernel(X)))
+
+
+def test_the_warped_gradient_is_the_derivative_in_every_log_hyperparameter():
+    X = np.random.default_rng(1).random((6, 3))
+    kernel = WarpedAdditiveMatern(VARIANCES, LENGTHS, WARP_A, WARP_B)
+    K, gradient = kernel(X, eval_gradient=True)
+    assert [h.name for h in kernel.hyperparameters] == ["length_scales", "variances", "warping_a", "warping_b"]
+    assert gradient.shape == (6, 6, 12)
+    step = 1e-6
+    for i, theta in enumerate(np.eye(len(kernel.theta)) * step + kernel.theta):
+        assert (kernel.clone_with_theta(theta)(X) - K) / step == pytest.approx(gradient[:, :, i], abs=1e-5)
+
+
+@pytest.mark.slow
+def test_a_warped_model_learns_wells_in_the_corner_of_each_range():
+    """Ten wells of x¹³, one per variable, each a few hundredths wide in x near the top of its range (a
+    sum like MW1's distance function): 150 designs, random except that each variable lies in the top tenth
+    of its range a third of the time, all lie above 4.5. The warped model puts the minimum near its true
+    value, 0, and predicts 200 new designs of the same kind within a few hundredths; the plain additive one
+    (1.3 at the minimum, 0.3 out of sample here) does not. Its fit stretches the top of every range (a > 1)."""
+    d = 10
+    centre = np.linspace(0.55, 0.95, d)
+
+    def wells(X):
+        return (1.0 - np.exp(-10.0 * (X**13 - centre) ** 2)).sum(axis=1)
+
+    def draw(rng, n):
+        X = rng.random((n, d))
+        top = rng.random((n, d)) < 1 / 3
+        X[top] = 0.9 + 0.1 * rng.random(top.sum())
+        return X
+
+    rng = np.random.default_rng(5)
+    X, test = draw(rng, 150), draw(rng, 200)
+    data = TrainingData(X, np.zeros(len(X), bool), wells(X)[:, None], np.zeros((len(X), 0)), np.zeros(len(X)),
+                        np.arange(len(X), dtype=float))
+    assert wells(X).min() > 4.5
+    minimum, error = {}, {}
+    for kernel in ("additive", "warped"):
+        models = Models(np.zeros(d), np.ones(d), ["w"], [], kernel=kernel).fit(data, cap=len(X))
+        minimum[kernel] = models.predict(centre[None] ** (1 / 13)).mean[0, 0]
+        error[kernel] = np.sqrt(np.mean((models.predict(test).mean[:, 0] - wells(test)) ** 2))
+    assert abs(minimum["warped"]) < 0.3 and minimum["additive"] > 1.0
+    assert error["warped"] < 0.05 and error["additive"] > 0.2
+    assert np.all(np.asarray(models._regressors["w"].kernel_.k1.k2.warping_a) > 1.0)
