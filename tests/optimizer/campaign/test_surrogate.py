@@ -260,15 +260,16 @@ def test_a_surrogate_campaign_beats_plain_nsga2_at_equal_evaluations(tmp_path):
     assert status["method"] == "surrogate" and "model error f1" in format_status(status)
 
 
-def test_the_additive_kernel_is_fitted_and_stored_with_its_term(tmp_path):
+@pytest.mark.parametrize("kernel, per_variable", [("additive", 2), ("warped", 4)])
+def test_the_additive_kernels_are_fitted_and_stored_with_their_terms(tmp_path, kernel, per_variable):
     """``kernel: additive`` adds a variance and a length scale per design variable to each regression's stored
-    hyperparameters (product: constant, 8 length scales, noise)."""
+    hyperparameters (product: constant, 8 length scales, noise); ``warped`` also the two warping exponents."""
     config = campaign(tmp_path, ZDT1, "algorithm.method=surrogate", "algorithm.generations=3",
-                      "algorithm.surrogate={pool: 5, training: 40, kernel: additive}")
+                      f"algorithm.surrogate={{pool: 5, training: 40, kernel: {kernel}}}")
     run_campaign(config, tmp_path / "run")
     with Store(tmp_path / "run" / STORE_NAME, readonly=True) as s:
         theta = s.generations()[-1].search["theta"]
-    assert len(theta["f1"]) == len(theta["f2"]) == 1 + 8 + 2 * 8 + 1
+    assert len(theta["f1"]) == len(theta["f2"]) == 1 + 8 + per_variable * 8 + 1
 
 
 def test_the_coordinate_search_adds_its_designs_to_the_pool(tmp_path):
@@ -298,7 +299,7 @@ def test_plain_generations_record_their_draws(tmp_path):
     ("algorithm.method=kriging", r"algorithm.method.*nsga2.*surrogate"),
     ("algorithm.surrogate.pool=0", r"algorithm.surrogate.pool"),
     ("algorithm.surrogate.exploration=1.5", r"algorithm.surrogate.exploration"),
-    ("algorithm.surrogate.kernel=rbf", r"algorithm.surrogate.kernel.*product.*additive"),
+    ("algorithm.surrogate.kernel=rbf", r"algorithm.surrogate.kernel.*product.*additive.*warped"),
     ("algorithm.surrogate.coordinate_search=maybe", r"algorithm.surrogate.coordinate_search"),
     ("algorithm.surrogate.kappa=2", r"unknown key 'algorithm.surrogate.kappa'; allowed: pool, exploration"),
 ])
