@@ -93,7 +93,8 @@ class WarpedAdditiveMatern(AdditiveMatern):
 
     The inputs are in the unit box (clipped to it, a hair inside, so that the logarithms of the gradient stay
     finite); warping_a, warping_b: ``a_j``, ``b_j`` per variable (1, 1: no warping); warping_bounds apply to
-    every one of them."""
+    every one of them: from 0.1 to 30, a stretch of the bottom of a range to one of its top tenth (0.9³⁰ =
+    0.04, so ``a = 30`` spreads the top tenth over nearly all of w)."""
 
     def __init__(self, variances=(0.1,), length_scales=(0.3,), warping_a=(1.0,), warping_b=(1.0,),
                  variances_bounds=(1e-4, 1e3), length_scales_bounds=(1e-3, 1e2), warping_bounds=(0.1, 30.0)):
