@@ -40,6 +40,9 @@ class BezierCurve:
 
     control_points: Array
     _poly: BPoly = field(init=False, repr=False, compare=False)
+    # derivative polynomials by order, built on first use: the curvature checks of a campaign's screening
+    # evaluate them thousands of times per curve
+    _derivatives: dict[int, BPoly] = field(init=False, repr=False, compare=False, default_factory=dict)
 
     def __post_init__(self) -> None:
         cp = np.array(self.control_points, dtype=float)
@@ -70,7 +73,9 @@ class BezierCurve:
         u = np.atleast_1d(np.asarray(u, dtype=float))
         if order > self.degree:
             return np.zeros((u.size, 2))
-        return self._poly.derivative(order)(u)
+        if order not in self._derivatives:
+            self._derivatives[order] = self._poly.derivative(order)
+        return self._derivatives[order](u)
 
     def curvature(self, u: ArrayLike) -> Array:
         """Signed curvature (1/m), positive for a left (counter-clockwise) turn."""

@@ -90,14 +90,14 @@ def _regressor(d: int, theta: Sequence[float] | None, kernel_name: str):
     from sklearn.gaussian_process import GaussianProcessRegressor
     from sklearn.gaussian_process.kernels import ConstantKernel, Matern, WhiteKernel
 
-    from optimizer.campaign.additive import AdditiveMatern, WarpedAdditiveMatern
+    from optimizer.campaign.additive import AdditiveMatern, InPlaceSum, WarpedAdditiveMatern
 
     kernel = ConstantKernel(1.0, (1e-3, 1e3)) * Matern(np.full(d, 0.5), (1e-3, 1e2), nu=2.5)
     if kernel_name == "additive":
         kernel = kernel + AdditiveMatern(np.full(d, 0.1), np.full(d, 0.3))
     elif kernel_name == "warped":
         kernel = kernel + WarpedAdditiveMatern(np.full(d, 0.1), np.full(d, 0.3), np.ones(d), np.ones(d))
-    kernel = kernel + WhiteKernel(1e-4, (1e-8, 1e-1))
+    kernel = InPlaceSum(kernel, WhiteKernel(1e-4, (1e-8, 1e-1)))
     if theta is not None and len(theta) == len(kernel.theta):
         kernel = kernel.clone_with_theta(np.clip(np.asarray(theta, float), *kernel.bounds.T))
     return GaussianProcessRegressor(kernel, normalize_y=True, optimizer=_optimizer(FIT_ITERATIONS))

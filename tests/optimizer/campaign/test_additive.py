@@ -2,15 +2,16 @@
 derivative in the log-hyperparameters, and in the surrogate it lets a model of one-variable effects find
 the minimum of a response that no training design comes near. The warped kernel: the same terms after the
 Kumaraswamy warping of each variable, an exact gradient in all its log-hyperparameters, and a fit that finds
-a steep corner of a variable's range."""
+a steep corner of a variable's range. The sum of a surrogate's terms, its gradient computed in place, is
+scikit-learn's sum."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
-from sklearn.gaussian_process.kernels import Matern
+from sklearn.gaussian_process.kernels import ConstantKernel, Matern, WhiteKernel
 
-from optimizer.campaign.additive import AdditiveMatern, WarpedAdditiveMatern
+from optimizer.campaign.additive import AdditiveMatern, InPlaceSum, WarpedAdditiveMatern
 from optimizer.campaign.surrogate import Models, TrainingData
 
 VARIANCES = np.array([0.5, 1.0, 2.0])
@@ -81,6 +82,20 @@ def test_the_warped_gradient_is_the_derivative_in_every_log_hyperparameter():
     step = 1e-6
     for i, theta in enumerate(np.eye(len(kernel.theta)) * step + kernel.theta):
         assert (kernel.clone_with_theta(theta)(X) - K) / step == pytest.approx(gradient[:, :, i], abs=1e-5)
+
+
+@pytest.mark.parametrize("additive", [None, AdditiveMatern(VARIANCES, LENGTHS),
+                                      WarpedAdditiveMatern(VARIANCES, LENGTHS, WARP_A, WARP_B)])
+def test_the_in_place_sum_is_scikit_learn_s_sum(additive):
+    X = np.random.default_rng(4).random((9, 3))
+    terms = ConstantKernel(2.0) * Matern(LENGTHS, nu=2.5)
+    terms = terms if additive is None else terms + additive
+    plain, in_place = terms + WhiteKernel(1e-3), InPlaceSum(terms, WhiteKernel(1e-3))
+    (K, gradient), (K_in_place, gradient_in_place) = plain(X, eval_gradient=True), in_place(X, eval_gradient=True)
+    assert K_in_place == pytest.approx(K, abs=1e-14)
+    assert gradient_in_place == pytest.approx(gradient, abs=1e-14)
+    assert in_place(X[:4], X) == pytest.approx(plain(X[:4], X), abs=1e-14)
+    assert np.array_equal(in_place.theta, plain.theta)
 
 
 @pytest.mark.slow
