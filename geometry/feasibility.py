@@ -122,7 +122,25 @@ def _eq21(spec: BladeSpec) -> tuple[Constraint, Constraint]:
 def minimum_curvature_radius(curve: BezierCurve) -> tuple[float, float]:
     """Smallest curvature radius (m) of ``curve`` and the parameter u where it occurs."""
     u = np.linspace(0.0, 1.0, DENSE)
+    return _refined(curve, u, np.abs(curve.curvature(u)))
+
+
+def curvature_radius_at_least(curve: BezierCurve, radius: float) -> bool:
+    """Whether the smallest curvature radius of ``curve`` is at least ``radius`` (m), exactly as
+    :func:`minimum_curvature_radius` finds it. The refinement only ever finds a sharper turn than the dense
+    samples, so it is skipped where they already turn more sharply than 1/``radius``: most of a screened
+    pool's rejections cost one evaluation of the curvature."""
+    u = np.linspace(0.0, 1.0, DENSE)
     kappa = np.abs(curve.curvature(u))
+    k_max = kappa.max()
+    if k_max > 0 and 1.0 / k_max < radius:
+        return False
+    return _refined(curve, u, kappa)[0] >= radius
+
+
+def _refined(curve: BezierCurve, u: np.ndarray, kappa: np.ndarray) -> tuple[float, float]:
+    """The smallest curvature radius from the samples ``kappa`` = |curvature(u)|, refined around their
+    maximum by a bounded scalar search."""
     i = int(np.argmax(kappa))
     lo, hi = u[max(i - 1, 0)], u[min(i + 1, u.size - 1)]
     best = minimize_scalar(lambda s: -abs(curve.curvature([s])[0]), bounds=(lo, hi), method="bounded",

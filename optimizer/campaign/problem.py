@@ -328,7 +328,7 @@ class BladeProblem(CampaignProblem):
         """Cheap necessary conditions (Eq. 21 angles; Eq. 22 cutter-path curvature in tool-path mode),
         ``(n,)`` bool: designs failing them need not be machined to be rejected."""
         from geometry import blade_curves
-        from geometry.feasibility import minimum_curvature_radius
+        from geometry.feasibility import curvature_radius_at_least
 
         ok = np.ones(len(X), bool)
         for i, x in enumerate(X):
@@ -342,8 +342,7 @@ class BladeProblem(CampaignProblem):
                 except ValueError:
                     ok[i] = False
                     continue
-                ok[i] = min(minimum_curvature_radius(c.suction)[0], minimum_curvature_radius(c.pressure)[0]) \
-                    >= c.radius
+                ok[i] = all(curvature_radius_at_least(side, c.radius) for side in (c.suction, c.pressure))
         return ok
 
     def key(self, x: np.ndarray) -> str:

@@ -17,7 +17,7 @@ from geometry import (
 )
 from geometry.blade import tool_path_pieces
 from geometry.examples import TABLE5_G1_TOOLPATH
-from geometry.feasibility import minimum_curvature_radius
+from geometry.feasibility import curvature_radius_at_least, minimum_curvature_radius
 
 TOLERANCE = 1e-6  # m, the default: machined profile within 1 µm of the exact envelope
 R = 5e-3
@@ -117,6 +117,23 @@ def test_eq22_flags_a_path_tighter_than_the_cutter():
     assert "< R = 5 mm" in eq22.reason
     radius, _ = minimum_curvature_radius(blade_curves(spec).suction)
     assert eq22.value == pytest.approx(1 - min(radius, minimum_curvature_radius(blade_curves(spec).pressure)[0]) / R)
+
+
+def test_the_screening_s_radius_verdict_is_the_refined_one():
+    """Random Table 6 tool paths of every class, and radii at, just above and just below each curve's refined
+    minimum: the screening's shortcut gives the verdict of the full search every time."""
+    rng = np.random.default_rng(7)
+    for continuity in ["G0", "G1", "C1", "G2", "C2"]:
+        space = ParameterSpace.default("toolpath", continuity)
+        for x in space.sample(8, rng):
+            try:
+                curves = blade_curves(space.spec(x))
+            except ValueError:
+                continue
+            for curve in (curves.suction, curves.pressure):
+                r_min = minimum_curvature_radius(curve)[0]
+                for radius in (R, r_min, r_min * (1 - 1e-9), r_min * (1 + 1e-9), 0.5 * r_min, 2.0 * r_min):
+                    assert curvature_radius_at_least(curve, radius) == (r_min >= radius)
 
 
 @pytest.mark.slow
