@@ -81,6 +81,24 @@ def test_a_warm_start_from_stored_hyperparameters_gives_the_same_models():
     assert np.allclose(warm.predict(X[:5]).mean, first.predict(X[:5]).mean, atol=1e-6)
 
 
+def test_models_fitted_side_by_side_are_those_fitted_one_after_another(monkeypatch):
+    import optimizer.campaign.surrogate as surrogate
+
+    rng = np.random.default_rng(2)
+    X = rng.random((60, 4))
+    failed = X[:, 3] > 0.85
+    F = np.column_stack([np.sin(3 * X[:, 0]) + X[:, 1], X[:, 2] ** 2, X[:, :2].sum(axis=1)])
+    data = TrainingData(X, failed, np.where(failed[:, None], np.nan, F[:, :2]), F[:, 2:], np.zeros(60),
+                        np.arange(60.0))
+    fit = lambda: Models(np.zeros(4), np.ones(4), ["a", "b"], ["g"], kernel="warped").fit(data, cap=60)  # noqa: E731
+    monkeypatch.setattr(surrogate, "_cores", lambda: 4)
+    side_by_side = fit()
+    monkeypatch.setattr(surrogate, "_cores", lambda: 1)
+    one_by_one = fit()
+    assert side_by_side.theta() == one_by_one.theta()
+    assert list(side_by_side.theta()) == ["a", "b", "g", "failure"]
+
+
 # ------------------------------------------------------------------------------------------ choice
 def _prediction(mean, std=None, p_fail=None):
     mean = np.asarray(mean, float)
