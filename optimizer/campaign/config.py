@@ -200,8 +200,9 @@ class SurrogateSettings(Section):
                                      "Matérn 5/2 with a length scale per design variable, plus noise; additive: "
                                      "the same plus a Matérn 5/2 term per variable (one-variable effects), which "
                                      "ranks many-variable problems better; warped: the additive terms on each "
-                                     "variable's range warped by a fitted monotone map, for effects that are flat "
-                                     "over most of a range and steep in a corner of it (decision 0017)")
+                                     "variable's range warped by a fitted monotone map (a prior keeps it near the "
+                                     "identity unless the data ask), for effects that are flat over most of a "
+                                     "range and steep in a corner of it (decision 0017)")
     coordinate_search: bool = Field(False, description="also move the best designs of the search on the models "
                                     "one variable at a time over its whole range, to the best predicted value "
                                     "(crosses the barriers between a variable's basins that NSGA-II's steps "
