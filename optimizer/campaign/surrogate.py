@@ -11,8 +11,9 @@ every fit:
   effects of one variable at a time, which the product term learns only from designs near each other in
   every variable at once, and which it therefore misses in many variables with a few hundred designs;
 * with ``kernel: warped`` instead, the same additive terms on each variable after a fitted monotone warping
-  of its range (:class:`~optimizer.campaign.additive.WarpedAdditiveMatern`): one-variable effects that are
-  flat over most of a variable's range and steep in a corner of it;
+  of its range (:class:`~optimizer.campaign.additive.WarpedAdditiveMatern`; its exponents under a
+  log-normal prior of median 1, :data:`WARP_PRIOR_VARIANCE`): one-variable effects that are flat over most
+  of a variable's range and steep in a corner of it;
 * white noise, for the solver's scatter;
 
 and a Gaussian-process classifier of **failure** — a design that does not give usable values
@@ -50,7 +51,7 @@ from optimizer.campaign.config import KERNELS
 FIT_ITERATIONS = 60
 #: Variance of the normal prior on the logarithms of the warping exponents a, b (``kernel: warped``): the
 #: log-normal prior of median 1 (no warping) that BoTorch's warped-GP tutorial and Ax put on both. Without it
-#: 60 exponents fitted to 200 designs wander to the bounds (decision 0017).
+#: the two exponents per variable, fitted to 200 designs, wander to their bounds (decision 0017).
 WARP_PRIOR_VARIANCE = 0.75
 
 
