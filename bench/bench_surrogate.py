@@ -215,8 +215,9 @@ def main() -> int:
     settings = {"kernel": args.kernel} if args.kernel != "product" else {}
     if args.coordinate_search:
         settings["coordinate_search"] = True
-    name = "-".join(["surrogate", *([args.kernel] if args.kernel != "product" else []),
-                     *(["coordinate"] if args.coordinate_search else [])])
+    from bench_surrogate_blade import rule_name  # the blade benchmark names its runs the same way
+
+    name = rule_name(args.kernel, args.coordinate_search)
     algorithm = {**METHODS["surrogate"], "surrogate": settings} if settings else METHODS["surrogate"]
     plain = [(args.out / c / f / f"plain-{s}", campaign(c, f, "plain", s)) for f in args.failures
              for c in args.cases for s in seeds if not args.igd_only]

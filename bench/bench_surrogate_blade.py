@@ -43,7 +43,7 @@ PLAIN_BUDGET, SURROGATE_BUDGET = 5000, 1000
 
 def rule_name(kernel: str = "product", coordinate_search: bool = False) -> str:
     """The surrogate runs' name: ``surrogate`` for the default rule, ``surrogate-warped-coordinate`` and the like
-    for another (as in ``bench/bench_surrogate.py``)."""
+    for another (``bench/bench_surrogate.py`` names its runs with it too)."""
     return "-".join(["surrogate", *([kernel] if kernel != "product" else []),
                      *(["coordinate"] if coordinate_search else [])])
 
