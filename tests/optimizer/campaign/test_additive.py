@@ -100,8 +100,8 @@ def test_the_in_place_sum_is_scikit_learn_s_sum(additive):
 
 def test_the_warping_exponents_have_a_log_normal_prior_of_median_one():
     """The fit maximises the marginal likelihood plus, on the warping exponents only, a normal log-prior of
-    variance 0.75 about log 1 = 0: on a quadratic stand-in for the likelihood, the mode moves from the
-    likelihood's optimum c to c / (1 + 1 / 0.75) for those, and stays at c for the others."""
+    variance v about log 1 = 0: on a quadratic stand-in for the likelihood, the mode moves from the
+    likelihood's optimum c to c / (1 + 1 / v) for those, and stays at c for the others."""
     from optimizer.campaign.surrogate import WARP_PRIOR_VARIANCE, _optimizer, _regressor
 
     c = np.array([1.0, -2.0, 0.5, 3.0])
@@ -111,7 +111,8 @@ def test_the_warping_exponents_have_a_log_normal_prior_of_median_one():
         return 0.5 * float(np.sum((theta - c) ** 2)), theta - c
 
     mode, _ = _optimizer(200, prior)(objective, np.zeros(4), np.tile([-10.0, 10.0], (4, 1)))
-    assert mode == pytest.approx(np.where(prior, c / (1 + 1 / WARP_PRIOR_VARIANCE), c), abs=1e-6)
+    # L-BFGS-B stops at a projected gradient of 1e-5; the curvature here is at least 1, so the mode is that near.
+    assert mode == pytest.approx(np.where(prior, c / (1 + 1 / WARP_PRIOR_VARIANCE), c), abs=1e-5)
     counts = {k: sum(h.n_elements for h in _regressor(3, None, k).kernel.hyperparameters if "warping_" in h.name)
               for k in ("product", "additive", "warped")}
     assert counts == {"product": 0, "additive": 0, "warped": 6}
