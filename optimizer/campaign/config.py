@@ -386,7 +386,11 @@ class CampaignConfig(Config):
         """The resolved campaign (every value, defaults included); reading it back gives the same one."""
         if self.analytic is None:
             return super().to_yaml()
-        return yaml.safe_dump(self.model_dump(mode="json"), sort_keys=False)
+        data = self.model_dump(mode="json")
+        # an analytic campaign has no blade: the one filled in for a blade section left out (Table 4's) is
+        # not written, so that reading the file back does not warn of blade.parameters no campaign uses
+        data["blade"]["parameters"] = {}
+        return yaml.safe_dump(data, sort_keys=False)
 
 
 def load_campaign(path: str | Path | None, overrides: Sequence[str] = ()) -> CampaignConfig:

@@ -86,6 +86,21 @@ def test_no_failures_keep_the_design_keys(tmp_path):
     assert plain.key(x) == zero.key(x) != failing.key(x)
 
 
+def test_the_written_configuration_reads_back_without_a_warning(tmp_path):
+    """A run directory's config.yaml is what `millfoil resume` reads: it must not warn of a blade the
+    analytic campaign never had."""
+    import warnings
+
+    config = campaign(tmp_path, "{problem: zdt1, variables: 4}")
+    path = tmp_path / "config.yaml"
+    path.write_text(config.to_yaml())
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        again = load_campaign(path)
+    assert again.to_yaml() == config.to_yaml()
+    assert again.analytic == config.analytic and again.algorithm == config.algorithm
+
+
 def test_an_unknown_problem_names_the_allowed_ones(tmp_path):
     with pytest.raises(ConfigError, match=r"analytic.problem.*zdt1.*mw7"):
         campaign(tmp_path, "{problem: zdt9}")
