@@ -203,6 +203,9 @@ class SurrogateSettings(Section):
                                      "variable's range warped by a fitted monotone map (a prior keeps it near the "
                                      "identity unless the data ask), for effects that are flat over most of a "
                                      "range and steep in a corner of it (decision 0017)")
+    recent: int = Field(0, ge=0, le=5000, description="of the training designs, how many are the newest "
+                        "evaluated, whatever their rank (the rest: those nearest the front), so that the models "
+                        "learn from the batches they misjudged; 0: all by rank (decision 0017)")
     coordinate_search: bool = Field(False, description="also move the best designs of the search on the models "
                                     "one variable at a time over its whole range, to the best predicted value "
                                     "(crosses the barriers between a variable's basins that NSGA-II's steps "
@@ -423,6 +426,12 @@ def check_campaign(config: CampaignConfig, source: Any) -> CampaignConfig:
         _check_design_variables(config, source)
     _check_evaluations(config, source)
     _check_execution(config, source)
+    s = config.algorithm.surrogate
+    if s.recent > s.training:
+        path = ("algorithm", "surrogate", "recent")
+        raise ConfigError(f"{source.where(path)}: 'algorithm.surrogate.recent' = {s.recent} is more than "
+                          f"algorithm.surrogate.training ({s.training}): the newest designs are part of the "
+                          "training set; allowed: 0 to the training size")
     return config
 
 

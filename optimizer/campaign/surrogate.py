@@ -152,14 +152,21 @@ class Models:
         return (np.asarray(X, float) - self.lower) / span
 
     # ------------------------------------------------------------------------------------------- fit
-    def fit(self, data: TrainingData, cap: int, theta: dict[str, list[float]] | None = None) -> Models:
-        """Fit every model on ``data`` (at most ``cap`` designs each), warm-started from ``theta``."""
+    def fit(self, data: TrainingData, cap: int, theta: dict[str, list[float]] | None = None,
+            recent: int = 0) -> Models:
+        """Fit every model on ``data`` (at most ``cap`` designs each), warm-started from ``theta``: the
+        ``recent`` newest designs with values, then the best-ranked of the rest (newest first among equals)."""
         theta = theta or {}
         ok = ~data.failed
         if ok.sum() < 2:
             raise ValueError(f"the surrogate needs at least 2 designs with values, the store has {int(ok.sum())}")
         chosen = np.flatnonzero(ok)
-        chosen = chosen[np.lexsort((-data.order[chosen], data.rank[chosen]))][:cap]
+        # a design the models misjudged ranks low and would never be learnt from once the store outgrows
+        # the cap: the newest are kept whatever their rank
+        newest = chosen[np.argsort(-data.order[chosen], kind="stable")][:min(recent, cap)]
+        rest = np.setdiff1d(chosen, newest)
+        rest = rest[np.lexsort((-data.order[rest], data.rank[rest]))][:cap - len(newest)]
+        chosen = np.concatenate([newest, rest])
         X = self.scale(data.X[chosen])
         self.training_size = len(chosen)
         targets = [(label, data.F[chosen, i]) for i, label in enumerate(self.objectives)]

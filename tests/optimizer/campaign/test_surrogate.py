@@ -81,6 +81,22 @@ def test_a_warm_start_from_stored_hyperparameters_gives_the_same_models():
     assert np.allclose(warm.predict(X[:5]).mean, first.predict(X[:5]).mean, atol=1e-6)
 
 
+def test_the_newest_designs_are_learnt_from_whatever_their_rank():
+    """Forty designs near the front (rank 0) and, newest, five far from it that turned out badly (rank 9):
+    with a cap of forty the campaign's rule never learns the five; keeping the newest, it does."""
+    rng = np.random.default_rng(2)
+    X = np.vstack([rng.random((40, 2)) * 0.5, 0.8 + 0.2 * rng.random((5, 2))])
+    F = (X ** 2).sum(axis=1, keepdims=True)
+    rank = np.r_[np.zeros(40), np.full(5, 9.0)]
+    data = TrainingData(X, np.zeros(45, bool), F, np.zeros((45, 0)), rank, np.arange(45.0))
+    by_rank = Models(np.zeros(2), np.ones(2), ["f"], []).fit(data, cap=40)
+    with_newest = Models(np.zeros(2), np.ones(2), ["f"], []).fit(data, cap=40, recent=5)
+    assert by_rank.training_size == with_newest.training_size == 40
+    far = slice(40, 45)
+    assert np.abs(with_newest.predict(X[far]).mean - F[far]).max() < 0.02
+    assert np.abs(by_rank.predict(X[far]).mean - F[far]).max() > 0.1
+
+
 def test_models_fitted_side_by_side_are_those_fitted_one_after_another(monkeypatch):
     import optimizer.campaign.surrogate as surrogate
 
@@ -319,6 +335,9 @@ def test_plain_generations_record_their_draws(tmp_path):
     ("algorithm.surrogate.exploration=1.5", r"algorithm.surrogate.exploration"),
     ("algorithm.surrogate.kernel=rbf", r"algorithm.surrogate.kernel.*product.*additive.*warped"),
     ("algorithm.surrogate.coordinate_search=maybe", r"algorithm.surrogate.coordinate_search"),
+    ("algorithm.surrogate.recent=-1", r"algorithm.surrogate.recent"),
+    ("algorithm.surrogate.recent=300", r"algorithm.surrogate.recent' = 300 is more than "
+                                       r"algorithm.surrogate.training \(200\)"),
     ("algorithm.surrogate.kappa=2", r"unknown key 'algorithm.surrogate.kappa'; allowed: pool, exploration"),
 ])
 def test_bad_surrogate_settings_name_the_key(tmp_path, override, message):
