@@ -196,8 +196,8 @@ def test_cli_exports_a_configuration(tmp_path):
 def test_the_kept_paper_fronts_export_as_nc_programs(tmp_path, capsys):
     """The tool-path fronts kept in the repository (`runs/examples/paper`): both ends and the middle of each
     finished run's |F_Y|-C_max front write both controllers' programs, each read back within 1 µm (the
-    command refuses otherwise). Every one of their 1 336 front designs was exported this way once, 0.3 s
-    each; these 30 keep the evidence exportable."""
+    command refuses otherwise). Every one of their front designs was exported this way once, 0.3 s each;
+    these keep the evidence exportable."""
     from pathlib import Path
 
     from optimizer.report.analysis import front, points
