@@ -11,7 +11,8 @@ about the batch the run evaluated at that generation: the error the campaign mad
 have made.
 
 Figures per generation and rule, for each objective: the mean signed error of the prediction (predicted −
-computed, in units of the objective's spread over the training designs: negative is optimistic), and the
+computed, in units of the objective's spread over the designs stored before that generation: negative
+is optimistic), and the
 median standardised error |predicted − computed| / predicted std (about 0.67 for a calibrated model).
 
     python bench/bench_surrogate.py --cases dtlz2 --failures none --kernel warped --coordinate-search \\
@@ -32,23 +33,31 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 
-def refit(run: Path, generation: int, recent: int) -> list[tuple[str, np.ndarray, np.ndarray]]:
-    """Per rule: (name, mean signed error per objective in training-spread units, median |z| per objective)."""
+def refit(run: Path, generations: list[int], recent: int):
+    """Per generation and rule: (generation, name, mean signed error per objective in units of the spread of
+    the designs stored before it, median |z| per objective)."""
     from optimizer.campaign.config import load_campaign
-    from optimizer.campaign.offspring import SurrogateOffspring, training_data
     from optimizer.campaign.problem import make_problem
     from optimizer.campaign.store import STORE_NAME, Store
-    from optimizer.campaign.surrogate import Models
 
     config = load_campaign(run / "config.yaml")
     problem = make_problem(config)
-    settings = config.algorithm.surrogate
     with Store(run / STORE_NAME, readonly=True) as store:
-        modelled = SurrogateOffspring(problem, config, store).modelled
-        data, _, _ = training_data(store, problem, generation, modelled)
-        batch = [r for r in store.evaluations(generation) if r.ok]
+        for generation in generations:
+            for name, bias, z in _refit_at(config, problem, store, generation, recent):
+                yield generation, name, bias, z
+
+
+def _refit_at(config, problem, store, generation: int, recent: int):
+    from optimizer.campaign.offspring import SurrogateOffspring, training_data
+    from optimizer.campaign.surrogate import Models
+
+    settings = config.algorithm.surrogate
+    modelled = SurrogateOffspring(problem, config, store).modelled
+    data, _, _ = training_data(store, problem, generation, modelled)
+    batch = [r for r in store.evaluations(generation) if r.ok]
     if not batch:
-        raise SystemExit(f"{run}: generation {generation} has no evaluated design with values")
+        raise SystemExit(f"generation {generation} has no evaluated design with values")
     X = np.array([r.x for r in batch], float)
     F = np.array([r.minimised for r in batch], float)
 
@@ -76,10 +85,9 @@ def main() -> int:
     print("| generation | training set | mean signed error / spread, per objective | median \\|z\\|, per objective |")
     print("|---|---|---|---|")
     with threadpool_limits(limits=1):
-        for g in args.generations:
-            for name, bias, z in refit(args.run, g, args.recent):
-                print(f"| {g} | {name} | {', '.join(f'{v:+.3f}' for v in bias)} | "
-                      f"{', '.join(f'{v:.2f}' for v in z)} |")
+        for g, name, bias, z in refit(args.run, args.generations, args.recent):
+            print(f"| {g} | {name} | {', '.join(f'{v:+.3f}' for v in bias)} | "
+                  f"{', '.join(f'{v:.2f}' for v in z)} |")
     return 0
 
 
