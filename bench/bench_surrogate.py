@@ -26,6 +26,7 @@ archive's front against ZDT1's true front.
     python bench/bench_surrogate.py --cases mw1 --kernel warped --coordinate-search
     python bench/bench_surrogate.py --cases mw2 mw3 --kernel warped --coordinate-search --stop-at-target
     python bench/bench_surrogate.py --cases dtlz2 --kernel warped --coordinate-search --recent 50 --stop-at-target
+    python bench/bench_surrogate.py --cases mw2 --kernel warped --coordinate-search --recent 50 --training 250
     python bench/bench_surrogate.py --report-only --json docs/figures/surrogate.json
     python bench/bench_surrogate.py --igd-only --kernel additive --coordinate-search   # pysamoo's budget only
 """
@@ -208,6 +209,8 @@ def main() -> int:
                         help="algorithm.surrogate.coordinate_search (runs named surrogate[-KERNEL]-coordinate-N)")
     parser.add_argument("--recent", type=int, default=0,
                         help="algorithm.surrogate.recent (runs named surrogate[-KERNEL][-coordinate]-recentR-N)")
+    parser.add_argument("--training", type=int, default=200,
+                        help="algorithm.surrogate.training (runs named ...-trainingT-N when not 200)")
     parser.add_argument("--stop-at-target", action="store_true",
                         help="stop each surrogate run once it reaches its case's target (the plain runs go first): "
                         "the evaluations to the target are measured, the hypervolume at 1 000 is not")
@@ -220,9 +223,11 @@ def main() -> int:
         settings["coordinate_search"] = True
     if args.recent:
         settings["recent"] = args.recent
-    from bench_surrogate_blade import rule_name  # the blade benchmark names its runs the same way
+    from bench_surrogate_blade import DEFAULT_TRAINING, rule_name  # the blade benchmark names its runs the same way
 
-    name = rule_name(args.kernel, args.coordinate_search, args.recent)
+    if args.training != DEFAULT_TRAINING:
+        settings["training"] = args.training
+    name = rule_name(args.kernel, args.coordinate_search, args.recent, args.training)
     algorithm = {**METHODS["surrogate"], "surrogate": settings} if settings else METHODS["surrogate"]
     plain = [(args.out / c / f / f"plain-{s}", campaign(c, f, "plain", s)) for f in args.failures
              for c in args.cases for s in seeds if not args.igd_only]

@@ -41,19 +41,27 @@ sys.path.insert(0, str(ROOT))
 PLAIN_BUDGET, SURROGATE_BUDGET = 5000, 1000
 
 
-def rule_name(kernel: str = "product", coordinate_search: bool = False, recent: int = 0) -> str:
+#: ``algorithm.surrogate.training``'s default: a rule with another cap is named for it.
+DEFAULT_TRAINING = 200
+
+
+def rule_name(kernel: str = "product", coordinate_search: bool = False, recent: int = 0,
+              training: int = DEFAULT_TRAINING) -> str:
     """The surrogate runs' name: ``surrogate`` for the default rule, ``surrogate-warped-coordinate``,
-    ``surrogate-warped-coordinate-recent50`` and the like for another (``bench/bench_surrogate.py`` names its
-    runs with it too)."""
+    ``surrogate-warped-coordinate-recent50-training250`` and the like for another
+    (``bench/bench_surrogate.py`` names its runs with it too)."""
     return "-".join(["surrogate", *([kernel] if kernel != "product" else []),
-                     *(["coordinate"] if coordinate_search else []), *([f"recent{recent}"] if recent else [])])
+                     *(["coordinate"] if coordinate_search else []), *([f"recent{recent}"] if recent else []),
+                     *([f"training{training}"] if training != DEFAULT_TRAINING else [])])
 
 
-def rule_settings(kernel: str = "product", coordinate_search: bool = False, recent: int = 0) -> list[str]:
+def rule_settings(kernel: str = "product", coordinate_search: bool = False, recent: int = 0,
+                  training: int = DEFAULT_TRAINING) -> list[str]:
     """The command-line settings of a surrogate rule other than the default."""
     return [*([f"algorithm.surrogate.kernel={kernel}"] if kernel != "product" else []),
             *(["algorithm.surrogate.coordinate_search=true"] if coordinate_search else []),
-            *([f"algorithm.surrogate.recent={recent}"] if recent else [])]
+            *([f"algorithm.surrogate.recent={recent}"] if recent else []),
+            *([f"algorithm.surrogate.training={training}"] if training != DEFAULT_TRAINING else [])]
 
 
 def run_dirs(out: Path, case: str, methods, seeds, rule: str = "surrogate") -> list[tuple[str, int, Path]]:
@@ -163,14 +171,16 @@ def main() -> int:
                         help="algorithm.surrogate.coordinate_search (runs named surrogate[-KERNEL]-coordinate-N)")
     parser.add_argument("--recent", type=int, default=0,
                         help="algorithm.surrogate.recent (runs named surrogate[-KERNEL][-coordinate]-recentR-N)")
+    parser.add_argument("--training", type=int, default=DEFAULT_TRAINING,
+                        help="algorithm.surrogate.training (runs named ...-trainingT-N when not 200)")
     args = parser.parse_args()
-    rule = rule_name(args.kernel, args.coordinate_search, args.recent)
+    rule = rule_name(args.kernel, args.coordinate_search, args.recent, args.training)
     if not args.report_only:
         # surrogate seed 1 of every case first, plain NSGA-II (5 000 evaluations each) last
         work = [(case, *item) for case in args.cases
                 for item in run_dirs(args.out, case, args.methods, range(1, args.seeds + 1), rule)]
         work.sort(key=lambda w: (w[1] == "nsga2", w[2]))
-        settings = rule_settings(args.kernel, args.coordinate_search, args.recent)
+        settings = rule_settings(args.kernel, args.coordinate_search, args.recent, args.training)
         for case, method, seed, directory in work:
             run_one(case, method, seed, directory, args.workers, settings)
     report(args.out, args.cases)
