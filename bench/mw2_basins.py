@@ -1,0 +1,135 @@
+"""Where MW2's runs stall: distance variables left in the far basin of its distance function.
+
+MW2 (Ma & Wang 2019, pymoo's ``MW2``) has f1 = x1 and f2 = g - x1 with the distance function
+g = 1 + Σᵢ [0.1/n zᵢ² + 1.5 - 1.5 cos(2π zᵢ)], zᵢ = 1 - exp(-10 (xᵢ - i/n)²), i = 1 … n-1. Each distance
+variable has two basins: zᵢ = 0 at xᵢ = i/n, where its term is 0, and zᵢ → 1 at the bound far from i/n,
+where cos(2π zᵢ) → 1 again and the term is only 0.1/n (0.0067 with n = 15), behind a barrier of 3. A front
+found with k variables in the far basin lies k × 0.0067 above the true one in f2: a few tenths of a percent
+of hypervolume per variable, and no step smaller than the barrier's width reaches the near basin.
+
+For each run: its archive front (every feasible design evaluated, non-dominated), their median distance
+excess g - 1 (= f1 + f2 - 1: how far above the true front), the number of distance
+variables with zᵢ > 0.5 in each front design (median and largest), which variables are so in most front
+designs, and the archive's hypervolume against (1.1, 1.1).
+
+    python bench/bench_surrogate.py --cases mw2 --failures none --kernel warped --coordinate-search \\
+        --recent 50 --stop-at-target --out runs/bench/surrogate
+    python bench/mw2_basins.py runs/bench/surrogate/mw2/none/surrogate-warped-coordinate-recent50-*
+    python bench/mw2_basins.py runs/bench/surrogate/mw2/none/surrogate-warped-coordinate-recent50-6 --probe 30
+
+``--probe GENERATION`` refits a surrogate run's models as the campaign did before that generation and asks
+them, for every far-basin variable of every front design stored before it, what moving that one variable to
+its optimum i/n does to f2: the median predicted and true change, the share of moves predicted to improve
+f2, and the median predicted standard deviation.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+
+def far_basin(X: np.ndarray) -> np.ndarray:
+    """``(designs, n - 1)``: True where a distance variable of MW2 is in its far basin (zᵢ > 0.5)."""
+    n = X.shape[1]
+    i = np.arange(1, n)
+    return 1.0 - np.exp(-10.0 * (X[:, 1:] - i / n) ** 2) > 0.5
+
+
+def summary(run: Path) -> tuple[int, float, float, int, list[int], float]:
+    """(front designs, their median g - 1 (= f1 + f2 - 1), median and largest far-basin count per design,
+    variables far in most of them (1-based, x2 … xn), archive hypervolume)."""
+    from bench_surrogate import archive_hypervolume
+
+    from optimizer.campaign.store import STORE_NAME, Store
+
+    with Store(run / STORE_NAME, readonly=True) as store:
+        front = store.front()
+    if not front:
+        return 0, float("nan"), float("nan"), 0, [], 0.0
+    excess = float(np.median([sum(r.minimised) - 1.0 for r in front]))
+    far = far_basin(np.array([r.x for r in front], float))
+    mostly = [int(k) + 2 for k in np.flatnonzero(far.mean(axis=0) > 0.5)]
+    counts = far.sum(axis=1)
+    return (len(front), excess, float(np.median(counts)), int(counts.max()), mostly,
+            float(archive_hypervolume(run)[-1]))
+
+
+def probe(run: Path, generation: int) -> tuple[int, int, float, float, float, float]:
+    """(front designs, far variables moved, median predicted and true change of f2, share predicted to
+    improve, median predicted std of f2) for the models fitted before ``generation``."""
+    from pymoo.problems.multi.mw import MW2
+
+    from optimizer.campaign.config import load_campaign
+    from optimizer.campaign.offspring import SurrogateOffspring, training_data
+    from optimizer.campaign.problem import make_problem
+    from optimizer.campaign.store import STORE_NAME, Store, non_dominated
+    from optimizer.campaign.surrogate import Models
+
+    config = load_campaign(run / "config.yaml")
+    problem = make_problem(config)
+    settings = config.algorithm.surrogate
+    with Store(run / STORE_NAME, readonly=True) as store:
+        modelled = SurrogateOffspring(problem, config, store).modelled
+        data, _, _ = training_data(store, problem, generation, modelled)
+        rows = [r for r in store.evaluations() if r.generation < generation and r.feasible]
+    models = Models(problem.lower, problem.upper, problem.objective_labels, modelled,
+                    kernel=settings.kernel).fit(data, settings.training, recent=settings.recent)
+    keep = non_dominated(np.array([r.minimised for r in rows], float))
+    X = np.array([r.x for r, k in zip(rows, keep, strict=True) if k], float)
+    n = X.shape[1]
+    pairs = []
+    for x in X:
+        for k in np.flatnonzero(far_basin(x[None])[0]):
+            moved = x.copy()
+            moved[k + 1] = (k + 1) / n
+            pairs += [x, moved]
+    if not pairs:
+        return len(X), 0, float("nan"), float("nan"), float("nan"), float("nan")
+    Y = np.array(pairs)
+    p = models.predict(Y)
+    true = MW2(n_var=n).evaluate(Y, return_values_of=["F"])
+    predicted = p.mean[1::2, 1] - p.mean[0::2, 1]
+    actual = true[1::2, 1] - true[0::2, 1]
+    return (len(X), len(predicted), float(np.median(predicted)), float(np.median(actual)),
+            float(np.mean(predicted < 0)), float(np.median(p.std[:, 1])))
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("runs", type=Path, nargs="+", help="MW2 run directories (finished or stopped)")
+    parser.add_argument("--probe", type=int, metavar="GENERATION",
+                        help="ask the models fitted before this generation about moving far variables home")
+    args = parser.parse_args()
+    if args.probe is not None:
+        from threadpoolctl import threadpool_limits
+
+        print("| run | generation | front designs | far variables moved | change of f2, median: predicted, true "
+              "| predicted to improve | predicted std of f2, median |")
+        print("|---|---|---|---|---|---|---|")
+        with threadpool_limits(limits=1):
+            for run in args.runs:
+                size, moves, predicted, actual, better, std = probe(run, args.probe)
+                print(f"| {run.name} | {args.probe} | {size} | {moves} | {predicted:+.4f}, {actual:+.4f} "
+                      f"| {better:.0%} | {std:.4f} |")
+        return 0
+    print("| run | front designs | g - 1, median | far-basin variables per design: median, largest | far in most "
+          "| hypervolume |")
+    print("|---|---|---|---|---|---|")
+    for run in args.runs:
+        if not run.is_dir():
+            continue
+        size, excess, median, largest, mostly, hv = summary(run)
+        far = ", ".join(f"x{k}" for k in mostly) or "-"
+        print(f"| {run.name} | {size} | {excess:.4f} | {median:.0f}, {largest} | {far} | {hv:.4f} |")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
