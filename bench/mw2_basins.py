@@ -4,8 +4,8 @@ MW2 (Ma & Wang 2019, pymoo's ``MW2``) has f1 = x1 and f2 = g - x1 with the dista
 g = 1 + Σᵢ [0.1/n zᵢ² + 1.5 - 1.5 cos(2π zᵢ)], zᵢ = 1 - exp(-10 (xᵢ - i/n)²), i = 1 … n-1. Each distance
 variable has two basins: zᵢ = 0 at xᵢ = i/n, where its term is 0, and zᵢ → 1 at the bound far from i/n,
 where cos(2π zᵢ) → 1 again and the term is only 0.1/n (0.0067 with n = 15), behind a barrier of 3. A front
-found with k variables in the far basin lies k × 0.0067 above the true one in f2: a few tenths of a percent
-of hypervolume per variable, and no step smaller than the barrier's width reaches the near basin.
+found with k variables in the far basin lies about k × 0.0067 above the true one in f2, and a step that
+does not clear the barrier's width never reaches the near basin.
 
 For each run: its archive front (every feasible design evaluated, non-dominated), their median distance
 excess g - 1 (= f1 + f2 - 1: how far above the true front), the number of distance
