@@ -10,17 +10,21 @@ does not clear the barrier's width never reaches the near basin.
 For each run: its archive front (every feasible design evaluated, non-dominated), their median distance
 excess g - 1 (= f1 + f2 - 1: how far above the true front), the number of distance
 variables with zᵢ > 0.5 in each front design (median and largest), which variables are so in most front
-designs, and the archive's hypervolume against (1.1, 1.1).
+designs, which variables were at home (near enough i/n to beat the far basin) in at most 2 % of the designs
+evaluated after the initial population, and the archive's hypervolume against (1.1, 1.1).
 
     python bench/bench_surrogate.py --cases mw2 --failures none --kernel warped --coordinate-search \\
         --recent 50 --stop-at-target --out runs/bench/surrogate
     python bench/mw2_basins.py runs/bench/surrogate/mw2/none/surrogate-warped-coordinate-recent50-*
     python bench/mw2_basins.py runs/bench/surrogate/mw2/none/surrogate-warped-coordinate-recent50-6 --probe 30
+    python bench/mw2_basins.py runs/bench/surrogate/mw2/none/surrogate-warped-coordinate-recent50-9 --probe 30 \
+        --kernel additive
 
 ``--probe GENERATION`` refits a surrogate run's models as the campaign did before that generation and asks
 them, for every far-basin variable of every front design stored before it, what moving that one variable to
 its optimum i/n does to f2: the median predicted and true change, the share of moves predicted to improve
-f2, and the median predicted standard deviation.
+f2, and the median predicted standard deviation. ``--kernel`` and ``--recent`` fit them otherwise, on the
+same data.
 """
 
 from __future__ import annotations
@@ -42,28 +46,40 @@ def far_basin(X: np.ndarray) -> np.ndarray:
     return 1.0 - np.exp(-10.0 * (X[:, 1:] - i / n) ** 2) > 0.5
 
 
-def summary(run: Path) -> tuple[int, float, float, int, list[int], float]:
+def at_home(X: np.ndarray) -> np.ndarray:
+    """``(designs, n - 1)``: True where a distance variable of MW2 is in the part of its near basin that beats
+    the far one (|xᵢ - i/n| < 0.039: 1.5 (1 - cos 2π zᵢ) < 0.1/n)."""
+    n = X.shape[1]
+    return np.abs(X[:, 1:] - np.arange(1, n) / n) < 0.039
+
+
+def summary(run: Path) -> tuple[int, float, float, int, list[int], list[int], float]:
     """(front designs, their median g - 1 (= f1 + f2 - 1), median and largest far-basin count per design,
-    variables far in most of them (1-based, x2 … xn), archive hypervolume)."""
+    variables far in most of them (1-based, x2 … xn), variables at home in at most 2 % of the designs
+    evaluated after the initial population, archive hypervolume)."""
     from bench_surrogate import archive_hypervolume
 
     from optimizer.campaign.store import STORE_NAME, Store
 
     with Store(run / STORE_NAME, readonly=True) as store:
         front = store.front()
+        offspring = np.array([r.x for r in store.evaluations() if r.generation > 0], float)
     if not front:
-        return 0, float("nan"), float("nan"), 0, [], 0.0
+        return 0, float("nan"), float("nan"), 0, [], [], 0.0
+    unvisited = [int(k) + 2 for k in np.flatnonzero(at_home(offspring).mean(axis=0) <= 0.02)]
     excess = float(np.median([sum(r.minimised) - 1.0 for r in front]))
     far = far_basin(np.array([r.x for r in front], float))
     mostly = [int(k) + 2 for k in np.flatnonzero(far.mean(axis=0) > 0.5)]
     counts = far.sum(axis=1)
-    return (len(front), excess, float(np.median(counts)), int(counts.max()), mostly,
+    return (len(front), excess, float(np.median(counts)), int(counts.max()), mostly, unvisited,
             float(archive_hypervolume(run)[-1]))
 
 
-def probe(run: Path, generation: int) -> tuple[int, int, float, float, float, float]:
+def probe(run: Path, generation: int, kernel: str | None = None,
+          recent: int | None = None) -> tuple[int, int, float, float, float, float]:
     """(front designs, far variables moved, median predicted and true change of f2, share predicted to
-    improve, median predicted std of f2) for the models fitted before ``generation``."""
+    improve, median predicted std of f2) for the models fitted before ``generation``; kernel, recent: fit
+    them so instead of as the run did."""
     from pymoo.problems.multi.mw import MW2
 
     from optimizer.campaign.config import load_campaign
@@ -80,7 +96,8 @@ def probe(run: Path, generation: int) -> tuple[int, int, float, float, float, fl
         data, _, _ = training_data(store, problem, generation, modelled)
         rows = [r for r in store.evaluations() if r.generation < generation and r.feasible]
     models = Models(problem.lower, problem.upper, problem.objective_labels, modelled,
-                    kernel=settings.kernel).fit(data, settings.training, recent=settings.recent)
+                    kernel=kernel or settings.kernel).fit(data, settings.training,
+                                                          recent=settings.recent if recent is None else recent)
     keep = non_dominated(np.array([r.minimised for r in rows], float))
     X = np.array([r.x for r, k in zip(rows, keep, strict=True) if k], float)
     n = X.shape[1]
@@ -106,6 +123,10 @@ def main() -> int:
     parser.add_argument("runs", type=Path, nargs="+", help="MW2 run directories (finished or stopped)")
     parser.add_argument("--probe", type=int, metavar="GENERATION",
                         help="ask the models fitted before this generation about moving far variables home")
+    from optimizer.campaign.config import KERNELS
+
+    parser.add_argument("--kernel", choices=KERNELS, help="with --probe: fit with this kernel instead of the run's")
+    parser.add_argument("--recent", type=int, help="with --probe: fit with this recent instead of the run's")
     args = parser.parse_args()
     if args.probe is not None:
         from threadpoolctl import threadpool_limits
@@ -115,19 +136,19 @@ def main() -> int:
         print("|---|---|---|---|---|---|---|")
         with threadpool_limits(limits=1):
             for run in args.runs:
-                size, moves, predicted, actual, better, std = probe(run, args.probe)
+                size, moves, predicted, actual, better, std = probe(run, args.probe, args.kernel, args.recent)
                 print(f"| {run.name} | {args.probe} | {size} | {moves} | {predicted:+.4f}, {actual:+.4f} "
                       f"| {better:.0%} | {std:.4f} |")
         return 0
     print("| run | front designs | g - 1, median | far-basin variables per design: median, largest | far in most "
-          "| hypervolume |")
-    print("|---|---|---|---|---|---|")
+          "| at home in ≤ 2 % of the offspring | hypervolume |")
+    print("|---|---|---|---|---|---|---|")
     for run in args.runs:
         if not run.is_dir():
             continue
-        size, excess, median, largest, mostly, hv = summary(run)
-        far = ", ".join(f"x{k}" for k in mostly) or "-"
-        print(f"| {run.name} | {size} | {excess:.4f} | {median:.0f}, {largest} | {far} | {hv:.4f} |")
+        size, excess, median, largest, mostly, unvisited, hv = summary(run)
+        far, rare = (", ".join(f"x{k}" for k in ks) or "-" for ks in (mostly, unvisited))
+        print(f"| {run.name} | {size} | {excess:.4f} | {median:.0f}, {largest} | {far} | {rare} | {hv:.4f} |")
     return 0
 
 
