@@ -125,13 +125,19 @@ def reached(directory: Path, target: float) -> bool:
 
 def archive_hypervolume(directory: Path) -> np.ndarray:
     """Hypervolume of the feasible designs evaluated so far, after each evaluation (stored order)."""
-    from pymoo.indicators.hv import HV
-
     from optimizer.campaign.store import STORE_NAME, Store
-    from optimizer.report.analysis import hypervolume_trace
 
     with Store(directory / STORE_NAME, readonly=True) as s:
-        rows = sorted(s.evaluations(), key=lambda r: (r.generation, r.finished))
+        return rows_hypervolume(list(s.evaluations()))
+
+
+def rows_hypervolume(rows) -> np.ndarray:
+    """:func:`archive_hypervolume` of evaluation rows already read."""
+    from pymoo.indicators.hv import HV
+
+    from optimizer.report.analysis import hypervolume_trace
+
+    rows = sorted(rows, key=lambda r: (r.generation, r.finished))
     inside = (r.minimised if r.feasible and np.all(np.array(r.minimised) < REFERENCE) else None for r in rows)
     return hypervolume_trace(inside, HV(ref_point=np.array(REFERENCE)))
 

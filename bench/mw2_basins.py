@@ -57,13 +57,14 @@ def summary(run: Path) -> tuple[int, float, float, int, list[int], list[int], fl
     """(front designs, their median g - 1 (= f1 + f2 - 1), median and largest far-basin count per design,
     variables far in most of them (1-based, x2 … xn), variables at home in at most 2 % of the designs
     evaluated after the initial population, archive hypervolume)."""
-    from bench_surrogate import archive_hypervolume
+    from bench_surrogate import rows_hypervolume
 
     from optimizer.campaign.store import STORE_NAME, Store
 
     with Store(run / STORE_NAME, readonly=True) as store:
         front = store.front()
-        offspring = np.array([r.x for r in store.evaluations() if r.generation > 0], float)
+        rows = list(store.evaluations())
+    offspring = np.array([r.x for r in rows if r.generation > 0], float)
     if not front:
         return 0, float("nan"), float("nan"), 0, [], [], 0.0
     unvisited = [int(k) + 2 for k in np.flatnonzero(at_home(offspring).mean(axis=0) <= 0.02)]
@@ -72,7 +73,7 @@ def summary(run: Path) -> tuple[int, float, float, int, list[int], list[int], fl
     mostly = [int(k) + 2 for k in np.flatnonzero(far.mean(axis=0) > 0.5)]
     counts = far.sum(axis=1)
     return (len(front), excess, float(np.median(counts)), int(counts.max()), mostly, unvisited,
-            float(archive_hypervolume(run)[-1]))
+            float(rows_hypervolume(rows)[-1]))
 
 
 def probe(run: Path, generation: int, kernel: str | None = None,
