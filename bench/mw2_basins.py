@@ -20,11 +20,12 @@ evaluated after the initial population, and the archive's hypervolume against (1
     python bench/mw2_basins.py runs/bench/surrogate/mw2/none/surrogate-warped-coordinate-recent50-9 --probe 30 \
         --kernel additive
 
-``--probe GENERATION`` refits a surrogate run's models as the campaign did before that generation and asks
+``--probe GENERATION`` refits a surrogate run's models as the campaign did before that generation (warm-started
+from the hyperparameters it stored with the generation before) and asks
 them, for every far-basin variable of every front design stored before it, what moving that one variable to
 its optimum i/n does to f2: the median predicted and true change, the share of moves predicted to improve
 f2, and the median predicted standard deviation. ``--kernel`` and ``--recent`` fit them otherwise, on the
-same data.
+same data (another kernel from its default starting hyperparameters: the stored ones are another kernel's).
 """
 
 from __future__ import annotations
@@ -79,8 +80,8 @@ def summary(run: Path) -> tuple[int, float, float, int, list[int], list[int], fl
 def probe(run: Path, generation: int, kernel: str | None = None,
           recent: int | None = None) -> tuple[int, int, float, float, float, float]:
     """(front designs, far variables moved, median predicted and true change of f2, share predicted to
-    improve, median predicted std of f2) for the models fitted before ``generation``; kernel, recent: fit
-    them so instead of as the run did."""
+    improve, median predicted std of f2) for the models fitted before ``generation``, warm-started as the
+    campaign's were; kernel, recent: fit them so instead of as the run did."""
     from pymoo.problems.multi.mw import MW2
 
     from optimizer.campaign.config import load_campaign
@@ -96,8 +97,11 @@ def probe(run: Path, generation: int, kernel: str | None = None,
         modelled = SurrogateOffspring(problem, config, store).modelled
         data, _, _ = training_data(store, problem, generation, modelled)
         rows = [r for r in store.evaluations() if r.generation < generation and r.feasible]
+        before = [g for g in store.generations() if g.generation < generation]
+    # warm-started from the hyperparameters the campaign stored with the generation before, as it was
+    theta = (before[-1].search or {}).get("theta") if before and kernel in (None, settings.kernel) else None
     models = Models(problem.lower, problem.upper, problem.objective_labels, modelled,
-                    kernel=kernel or settings.kernel).fit(data, settings.training,
+                    kernel=kernel or settings.kernel).fit(data, settings.training, theta,
                                                           recent=settings.recent if recent is None else recent)
     keep = non_dominated(np.array([r.minimised for r in rows], float))
     X = np.array([r.x for r, k in zip(rows, keep, strict=True) if k], float)
