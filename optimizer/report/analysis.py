@@ -14,7 +14,7 @@ from __future__ import annotations
 
 from collections import Counter
 from collections.abc import Callable, Iterable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -163,7 +163,12 @@ def fields_designs(run: Run, pts: list[Point], count: int = 3) -> tuple[list[tup
 class Health:
     """Per generation (index = generation): hypervolume, feasible share of offspring, cache hits, counts by
     status and by convergence class of the designs first asked for in that generation; wall times of all
-    solved evaluations (s)."""
+    solved evaluations (s). A surrogate-assisted run adds the models' out-of-sample error on each batch
+    (``model_error``: ``{objective: RMSE of predicted against computed, in standard deviations of the
+    training values}``; 1 is what predicting their mean would give), the batch's failed share, computed
+    and predicted (``failures``: ``{"observed", "predicted"}``), and the driver's seconds fitting the models
+    and screening the candidates (``seconds``: ``{"fit", "screen"}``); None where a generation has none
+    (the initial population, NSGA-II's own offspring; a plain run's are all empty)."""
 
     generations: list[int]
     hypervolume: list[float | None]
@@ -172,6 +177,9 @@ class Health:
     by_status: dict[str, list[int]]
     by_class: dict[str, list[int]]
     times: list[float]
+    model_error: dict[str, list[float | None]] = field(default_factory=dict)
+    failures: dict[str, list[float | None]] = field(default_factory=dict)
+    seconds: dict[str, list[float | None]] = field(default_factory=dict)
 
 
 def health(run: Run) -> Health:
@@ -183,11 +191,18 @@ def health(run: Run) -> Health:
     statuses = sorted({s for c in status.values() for s in c})
     classes = sorted({s for c in cls.values() for s in c})
     times = [d.row.wall_seconds for d in run.designs if d.row.wall_seconds is not None]
+    search = {g: (stored[g].search or {}) if g in stored else {} for g in gens}
+    labels = list(dict.fromkeys(k for g in gens for k in search[g].get("error") or {}))
+    model_error = {k: [(search[g].get("error") or {}).get(k) for g in gens] for k in labels}
+    failures, seconds = {}, {}
+    if labels:
+        failures = {k: [(search[g].get("failures") or {}).get(k) for g in gens] for k in ("observed", "predicted")}
+        seconds = {k: [(search[g].get("seconds") or {}).get(k) for g in gens] for k in ("fit", "screen")}
     return Health(gens, [stored[g].hypervolume if g in stored else None for g in gens],
                   [stored[g].feasible_share if g in stored else None for g in gens],
                   [stored[g].cache_hits if g in stored else 0 for g in gens],
                   {s: [status[g][s] for g in gens] for s in statuses},
-                  {c: [cls[g][c] for g in gens] for c in classes}, times)
+                  {c: [cls[g][c] for g in gens] for c in classes}, times, model_error, failures, seconds)
 
 
 @dataclass(frozen=True)

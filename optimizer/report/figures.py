@@ -136,9 +136,13 @@ def blade_legend(mode: str) -> list:
 
 def health_figure(h: Health, path: Path) -> Path:
     """Hypervolume, feasible share of offspring, designs by status and by convergence class per generation,
-    and the histogram of the time per evaluation."""
-    fig, axes = plt.subplots(2, 3, figsize=(10, 5.2))
+    and the histogram of the time per evaluation; for a surrogate-assisted run also the models'
+    out-of-sample error and the failed share, computed and predicted, of each batch."""
+    surrogate = bool(h.model_error)
+    fig, axes = plt.subplots(3 if surrogate else 2, 3, figsize=(10, 7.8 if surrogate else 5.2))
     g = np.array(h.generations)
+    if surrogate:
+        _model_panels(axes[2], g, h)
     ax = axes[0, 0]
     hv = [np.nan if v is None else v for v in h.hypervolume]
     ax.plot(g, hv, "o-", ms=3)
@@ -165,12 +169,37 @@ def health_figure(h: Health, path: Path) -> Path:
     ax.set_title("time per evaluation [min]")
     for ax in axes.flat:
         ax.grid(alpha=0.3)
-    for ax in (*axes[1, :2], *axes[0, :]):
+    for ax in (*axes[1, :2], *axes[0, :], *(axes[2, :] if surrogate else ())):
         ax.set_xlabel("generation")
     fig.tight_layout()
     fig.savefig(path)
     plt.close(fig)
     return path
+
+
+def _model_panels(axes, g: np.ndarray, h: Health) -> None:
+    """The surrogate's row of the health figure: out-of-sample RMSE per objective, in standard deviations of
+    the training values, against the line of a model that predicts their mean; the batch's failed share; the
+    driver's seconds fitting the models and screening the candidates."""
+    ax = axes[0]
+    for k, (label, values) in enumerate(h.model_error.items()):
+        ax.plot(g, [np.nan if v is None else 100 * v for v in values], "o-", ms=3, color=f"C{k}", label=label)
+    ax.axhline(100, color="0.5", lw=0.8, ls="--", label="the training mean")
+    ax.set_title("model error on the batch [% of spread]")
+    ax.legend(fontsize=6)
+    ax = axes[1]
+    for k, (name, values) in enumerate(h.failures.items()):
+        ax.plot(g, [np.nan if v is None else 100 * v for v in values], "o-" if name == "observed" else "x--", ms=3,
+                color=f"C{k + 3}", label=name)
+    ax.set_ylim(0, 100)
+    ax.set_title("failed share of the batch [%]")
+    ax.legend(fontsize=6)
+    ax = axes[2]
+    for k, (name, values) in enumerate(h.seconds.items()):
+        ax.plot(g, [np.nan if v is None else v for v in values], "o-", ms=3, color=f"C{k + 5}", label=name)
+    ax.set_ylim(bottom=0)
+    ax.set_title("fit and screen per generation [s]")
+    ax.legend(fontsize=6)
 
 
 def _columns(ax, g: np.ndarray, values, bottom: np.ndarray | None = None, **style) -> None:

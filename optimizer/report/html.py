@@ -17,6 +17,7 @@ import datetime as _dt
 import html
 import os
 import platform
+import statistics
 import sys
 import zipfile
 from collections.abc import Callable
@@ -472,9 +473,20 @@ def _health(runs: list[Run], files: Files) -> str:
         files[f"health_{k}.svg"] = partial(health_figure, h)
         total = sum(h.cache_hits)
         parts.append(f"<h3>{e(r.name)}</h3><p class=\"note\">{len(r.designs)} designs stored, {total} cache hits; "
-                     f"per generation: <a href=\"generations_{k}.csv\">generations_{k}.csv</a>.</p>"
-                     + _img(f"health_{k}.svg", f"health of {r.name}"))
+                     f"{_model_error_note(h)}per generation: <a href=\"generations_{k}.csv\">generations_{k}.csv"
+                     "</a>.</p>" + _img(f"health_{k}.svg", f"health of {r.name}"))
     return "\n".join(parts)
+
+
+def _model_error_note(h) -> str:
+    """The surrogate's out-of-sample error over the run, in words (empty for a plain run)."""
+    medians = {k: [v for v in values if v is not None] for k, values in h.model_error.items()}
+    medians = {k: statistics.median(v) for k, v in medians.items() if v}
+    if not medians:
+        return ""
+    text = ", ".join(f"{e(k)} {v:.0%}" for k, v in medians.items())
+    return (f"the models' out-of-sample error on each batch, median over the generations: {text} (RMSE in standard "
+            "deviations of the training values; 100 % is what predicting their mean gives); ")
 
 
 def _provenance(runs: list[Run]) -> str:
@@ -542,8 +554,17 @@ def _generations_csv(r: Run, path: Path) -> None:
     h = health(r)
     with open(path, "w", newline="") as fh:
         w = csv.writer(fh)
-        w.writerow(["generation", "hypervolume", "feasible_share", "cache_hits", *h.by_status, *h.by_class])
+        # statuses and convergence classes share names (oscillating, not_converged): prefixed, so that no two
+        # columns have the same header
+        w.writerow(["generation", "hypervolume", "feasible_share", "cache_hits", *[f"status_{k}" for k in h.by_status],
+                    *[f"class_{k}" for k in h.by_class],
+                    *[f"model_error_{k}" for k in h.model_error], *[f"failed_{k}" for k in h.failures],
+                    *[f"{k}_seconds" for k in h.seconds]])
         for i, g in enumerate(h.generations):
-            w.writerow([g, h.hypervolume[i] if h.hypervolume[i] is not None else "",
-                        h.feasible_share[i] if h.feasible_share[i] is not None else "", h.cache_hits[i],
-                        *[v[i] for v in h.by_status.values()], *[v[i] for v in h.by_class.values()]])
+            w.writerow([g, _blank(h.hypervolume[i]), _blank(h.feasible_share[i]), h.cache_hits[i],
+                        *[v[i] for v in h.by_status.values()], *[v[i] for v in h.by_class.values()],
+                        *[_blank(v[i]) for v in (*h.model_error.values(), *h.failures.values(), *h.seconds.values())]])
+
+
+def _blank(value):
+    return "" if value is None else value

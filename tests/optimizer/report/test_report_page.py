@@ -249,3 +249,21 @@ def test_convergence_of_a_surrogate_run_beside_a_plain_one(tmp_path):
     assert {r["method"] for r in rows} == {"surrogate", "nsga2"} and len(rows) == 60
     assert (tmp_path / "r" / "convergence.svg").is_file()
     assert 'id="convergence"' in (tmp_path / "r" / "index.html").read_text()
+    # health: the surrogate's model error per generation, as the store recorded it; none for the plain run
+    from optimizer.campaign.store import STORE_NAME, Store
+
+    with Store(tmp_path / "surrogate" / STORE_NAME, readonly=True) as store:
+        recorded = {g.generation: g.search or {} for g in store.generations()}
+    gens = list(csv.DictReader((tmp_path / "r" / "generations_0.csv").open()))
+    assert gens[0]["model_error_f1"] == ""                          # the initial population: no models
+    checked = 0
+    for row in gens:
+        error = recorded[int(row["generation"])].get("error")
+        if error:
+            checked += 1
+            assert float(row["model_error_f2"]) == pytest.approx(error["f2"], rel=1e-12)
+            assert float(row["fit_seconds"]) == pytest.approx(recorded[int(row["generation"])]["seconds"]["fit"])
+    assert checked >= 3
+    assert not any(k.startswith("model_error") for k in next(csv.DictReader((tmp_path / "r" / "generations_1.csv")
+                                                                               .open())))
+    assert "out-of-sample error on each batch" in (tmp_path / "r" / "index.html").read_text()
