@@ -319,6 +319,7 @@ except MeshingError as exc:
 
 @pytest.mark.parametrize("level,outcome", [("coarse", "MeshingError: the blade wall resampled for this mesh level"),
                                            pytest.param("medium", "meshed", marks=pytest.mark.slow)])
+@pytest.mark.slow
 def test_a_wall_that_resamples_into_a_crossing_polygon_fails_at_once(level, outcome):
     """Refused with the place where it crosses, in about a second, instead of hanging the worker until the
     campaign's timeout; the finer level, whose spacing resolves the thin edge, meshes it."""

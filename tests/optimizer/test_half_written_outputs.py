@@ -84,6 +84,7 @@ def test_report_refuses_an_output_path_that_is_a_directory_and_writes_nothing(ru
     assert [p.name for p in out.iterdir()] == ["index.html"] and not any((out / "index.html").iterdir())
 
 
+@pytest.mark.slow
 def test_report_on_a_full_disk_leaves_no_file_and_the_previous_report(run, tmp_path, capsys, monkeypatch):
     import optimizer.report.html as page
 
@@ -102,6 +103,7 @@ def test_report_on_a_full_disk_leaves_no_file_and_the_previous_report(run, tmp_p
     assert not fresh.exists()             # the directory the report would have made is gone too
 
 
+@pytest.mark.slow
 def test_report_on_a_real_full_file_system(run, small_tmpfs, capsys):
     out = small_tmpfs / "report"
     assert main(["report", str(run), "--out", str(out)]) == 4

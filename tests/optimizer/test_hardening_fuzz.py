@@ -537,6 +537,7 @@ HEAVY = {
 }
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(not Path("/proc/self/clear_refs").exists(), reason="needs Linux's /proc/self/clear_refs")
 @pytest.mark.parametrize("name", list(HEAVY))
 def test_the_heaviest_inputs_stay_within_the_memory_bound(name, tmp_path):

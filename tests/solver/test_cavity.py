@@ -26,6 +26,7 @@ def couette_problem(mesh, mu=0.01):
     return Problem.create(mesh, bc, Fluid(1.0, mu))
 
 
+@pytest.mark.slow
 def test_couette_exact_on_quads():
     """Every operator is exact for a linear velocity on an orthogonal mesh: round-off only."""
     m = square_mesh(10, triangles="none", strength=0.4)

@@ -97,6 +97,7 @@ def test_green_gauss_linear_is_exact_on_an_orthogonal_mesh_and_uses_only_the_two
     assert np.abs(green_gauss_linear_gradient(m, phi, phi_b) - exact).max() > 1e-2
 
 
+@pytest.mark.slow
 def test_a_relaxed_correction_changes_the_path_not_the_converged_solution():
     """``green_gauss_relaxation``: the correction over ``green_gauss_linear`` lags by the factor, and the
     cavity converges to the unrelaxed solution (a fixed point of both iterations)."""

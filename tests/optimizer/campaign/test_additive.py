@@ -38,6 +38,7 @@ def test_the_gradient_is_the_derivative_in_the_log_hyperparameters():
     assert len(kernel.theta) == 6 and kernel.bounds.shape == (6, 2)
 
 
+@pytest.mark.slow
 def test_a_model_of_one_variable_effects_finds_a_minimum_no_design_came_near():
     """Ten narrow wells, one per variable, summed: 120 random designs all lie above 4.5 (every design misses
     most wells at once). The product kernel alone predicts 4.4 at the minimum (the level of the data

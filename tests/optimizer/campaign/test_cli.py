@@ -192,6 +192,7 @@ def test_run_creates_a_missing_chain_of_directories(tmp_path, zdt1):
     assert (run / "campaign.sqlite").is_file()
 
 
+@pytest.mark.slow
 def test_an_interrupt_inside_a_string_evaluation_still_exits_130_under_python_m(tmp_path):
     """CPython ends a ``-m`` run by SIGINT, whatever its exit status, once a KeyboardInterrupt ended a
     string exec (a dataclass being built as Ctrl-C arrives), even one caught: main keeps 130."""

@@ -113,6 +113,7 @@ def test_the_lock_is_released_when_the_driver_ends(tmp_path):
         pass
 
 
+@pytest.mark.slow
 def test_a_run_refused_before_any_evaluation_leaves_nothing_that_blocks(tmp_path):
     blade = ("blade: {mode: design, continuity: G1, bounds: {alpha: [-5, -4], beta1: [20, 30]}}\n"
              "mesh: {level: coarse}\nalgorithm: {population: 4, initial_draws: 10}\n")

@@ -191,6 +191,7 @@ def test_a_stored_design_is_not_evaluated_again(tmp_path, failing_pipeline):
         assert store.last_generation().cache_hits == 0        # the same generation again: not a cache hit
 
 
+@pytest.mark.slow
 def test_resume_with_infeasible_and_failed_members_equals_an_uninterrupted_run(tmp_path, failing_pipeline):
     """Infeasible and failed designs in the population (no rank, no crowding) survive the rebuild too."""
     config = blade_campaign(tmp_path)

@@ -121,6 +121,7 @@ def test_non_dominated_of_two_objectives_with_a_nan_row_compares_it_as_before():
     np.testing.assert_array_equal(non_dominated(F), [True, True, True, False])
 
 
+@pytest.mark.slow
 def test_a_campaign_keeps_the_fields_of_its_front_only(tmp_path, blade, monkeypatch):
     """The driver names each blade's fields file in its payload, the worker writes it, and after the last
     generation the files are exactly those of the stored front (stand-in pipeline: no CFD)."""

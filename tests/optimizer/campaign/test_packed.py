@@ -54,6 +54,7 @@ def test_the_write_ahead_log_is_folded_in(run):
         assert packed.campaign().message == "written last"
 
 
+@pytest.mark.slow
 def test_reading_commands_read_a_packed_store_as_it_is(run, finished_zdt1, capsys):
     pack(run / STORE_NAME)
     assert status_of(run)["evaluations"] == status_of(finished_zdt1)["evaluations"]
@@ -125,6 +126,7 @@ def test_a_damaged_packed_store_is_reported_as_damaged(run, capsys):
     assert not (run / STORE_NAME).exists() and not (run / f".{STORE_NAME}.partial").exists()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("packed", sorted(str(p.relative_to(ROOT)) for p in (ROOT / "runs" / "examples").rglob(
     f"{STORE_NAME}.xz")) or [pytest.param(None, marks=pytest.mark.skip(reason="no example stores"))])
 def test_the_example_stores_read_on_a_fresh_clone(packed):

@@ -74,6 +74,7 @@ def test_campaign_row_and_states(tmp_path):
         assert (c.config, c.seed, c.state, c.ended) == ("cfg\n", 5, "running", None)
 
 
+@pytest.mark.slow
 def test_wal_and_read_from_another_process_while_writing(tmp_path):
     path = tmp_path / "s.sqlite"
     store = Store(path)

@@ -97,6 +97,7 @@ def test_the_newest_designs_are_learnt_from_whatever_their_rank():
     assert np.abs(by_rank.predict(X[far]).mean - F[far]).max() > 0.1
 
 
+@pytest.mark.slow
 def test_models_fitted_side_by_side_are_those_fitted_one_after_another(monkeypatch):
     import optimizer.campaign.surrogate as surrogate
 
@@ -264,6 +265,7 @@ def test_plain_offspring_are_redrawn_until_feasible():
 
 
 # -------------------------------------------------------------------------------------- campaigns
+@pytest.mark.slow
 def test_a_surrogate_campaign_beats_plain_nsga2_at_equal_evaluations(tmp_path):
     from pymoo.indicators.hv import HV
 
@@ -377,6 +379,7 @@ def test_without_designs_with_values_a_generation_takes_nsga2_offspring(tmp_path
     assert "NSGA-II's own offspring" in search_text(searched[1])
 
 
+@pytest.mark.slow
 def test_a_constrained_campaign_bisects_its_constraint_boundaries(tmp_path):
     config = campaign(tmp_path, ZDT1.replace("zdt1, variables: 8", "mw3, variables: 6").replace("reference: 10",
                                                                                               "reference: 1.1"),

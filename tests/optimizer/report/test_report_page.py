@@ -228,6 +228,7 @@ def test_hypervolume_trace_is_the_hypervolume_of_every_point_so_far():
     assert hypervolume_trace([None, None], hv).tolist() == [0.0, 0.0]
 
 
+@pytest.mark.slow
 def test_convergence_of_a_surrogate_run_beside_a_plain_one(tmp_path):
     from optimizer.campaign.config import load_campaign
     from optimizer.campaign.driver import run_campaign
