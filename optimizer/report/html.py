@@ -45,7 +45,7 @@ from optimizer.report.figures import (
     study_fronts_figure,
     study_pairs_figure,
 )
-from optimizer.report.run import Run
+from optimizer.report.run import Run, named_apart
 from optimizer.report.study import (
     C2_LIFT_DROP,
     LIFT_DIFFERENCE,
@@ -88,6 +88,7 @@ def write_report(runs: list[Run], out: Path, option: str = "--out") -> Path:
     """Write ``out/index.html`` with its figures and tables for ``runs``, all or none of them (see the module
     docstring; ``option`` names ``out`` in an OutputError); returns the page's path."""
     out = Path(out)
+    runs = named_apart(runs)
     files: Files = {}
     pts = [points(r) for r in runs]
     pairs = list(zip(runs, pts, strict=True))

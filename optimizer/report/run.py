@@ -12,7 +12,7 @@ message saying what is damaged and what can still be read) before anything is wr
 from __future__ import annotations
 
 import sqlite3
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import cached_property
 from pathlib import Path
 from typing import Any
@@ -55,7 +55,7 @@ class Run:
 
     directory: the run directory. campaign: the ``campaign`` row. config: the resolved campaign as a mapping
     (the stored YAML). designs: every stored evaluation in store order. generations: the finished
-    generations.
+    generations. label: the name a report gives it where directory names alone collide (:func:`named_apart`).
     """
 
     directory: Path
@@ -63,10 +63,11 @@ class Run:
     config: dict[str, Any]
     designs: tuple[Design, ...]
     generations: tuple[GenerationRow, ...] = field(default=())
+    label: str = ""
 
     @property
     def name(self) -> str:
-        return self.directory.resolve().name
+        return self.label or self.directory.resolve().name
 
     @property
     def analytic(self) -> bool:
@@ -111,6 +112,21 @@ class Run:
             raise RunError(f"{self.directory}: {'no' if not found else str(len(found))} design key(s) start "
                            f"with {text!r}")
         return found[0]
+
+
+def named_apart(runs: list[Run]) -> list[Run]:
+    """``runs`` with names a reader can tell apart: a run whose directory name another run shares is named by
+    the shortest tail of its path that no other run ends in (``coarse/design_g1`` beside
+    ``medium/design_g1``); the others keep their directory name."""
+    parts = [r.directory.resolve().parts for r in runs]
+    out = []
+    for r, mine in zip(runs, parts, strict=True):
+        others = [p for p in parts if p is not mine]
+        depth = 1
+        while depth < len(mine) and any(p[-depth:] == mine[-depth:] for p in others):
+            depth += 1
+        out.append(replace(r, label="/".join(mine[-depth:])) if depth > 1 else r)
+    return out
 
 
 def run_directories(paths: list[Path]) -> list[Path]:

@@ -268,3 +268,13 @@ def test_convergence_of_a_surrogate_run_beside_a_plain_one(tmp_path):
     assert not any(k.startswith("model_error") for k in next(csv.DictReader((tmp_path / "r" / "generations_1.csv")
                                                                                .open())))
     assert "out-of-sample error on each batch" in (tmp_path / "r" / "index.html").read_text()
+
+
+def test_runs_sharing_a_directory_name_are_named_by_the_tail_that_tells_them_apart(tmp_path):
+    from optimizer.report.run import Run, named_apart
+
+    dirs = [tmp_path / "paper" / "coarse" / "design_g1", tmp_path / "paper" / "medium" / "design_g1",
+            tmp_path / "paper" / "medium" / "toolpath_g1", tmp_path / "a" / "x" / "run", tmp_path / "b" / "x" / "run"]
+    named = named_apart([Run(d, None, {}, ()) for d in dirs])
+    assert [r.name for r in named] == ["coarse/design_g1", "medium/design_g1", "toolpath_g1", "a/x/run", "b/x/run"]
+    assert [r.directory for r in named] == dirs
