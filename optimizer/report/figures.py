@@ -136,8 +136,8 @@ def blade_legend(mode: str) -> list:
 
 def health_figure(h: Health, path: Path) -> Path:
     """Hypervolume, feasible share of offspring, designs by status and by convergence class per generation,
-    and the histogram of the time per evaluation; for a surrogate-assisted run also the models'
-    out-of-sample error and the failed share, computed and predicted, of each batch."""
+    and the histogram of the time per evaluation; for a surrogate-assisted run a third row
+    (:func:`_model_panels`)."""
     surrogate = bool(h.model_error)
     fig, axes = plt.subplots(3 if surrogate else 2, 3, figsize=(10, 7.8 if surrogate else 5.2))
     g = np.array(h.generations)
