@@ -472,6 +472,7 @@ def _health(runs: list[Run], files: Files) -> str:
     for k, r in enumerate(runs):
         h = health(r)
         files[f"health_{k}.svg"] = partial(health_figure, h)
+        files[f"generations_{k}.csv"] = partial(_generations_csv, h)
         total = sum(h.cache_hits)
         parts.append(f"<h3>{e(r.name)}</h3><p class=\"note\">{len(r.designs)} designs stored, {total} cache hits; "
                      f"{_model_error_note(h)}per generation: <a href=\"generations_{k}.csv\">generations_{k}.csv"
@@ -517,7 +518,6 @@ def _tables(runs: list[Run], pts, files: Files) -> None:
     files["summary.csv"] = partial(_summary_csv, runs, pts)
     for k, (r, p) in enumerate(zip(runs, pts, strict=True)):
         files[f"designs_{k}.csv"] = partial(_designs_csv, r, p)
-        files[f"generations_{k}.csv"] = partial(_generations_csv, r)
 
 
 def _summary_csv(runs: list[Run], pts, path: Path) -> None:
@@ -551,8 +551,7 @@ def _designs_csv(r: Run, p, path: Path) -> None:
                         *[d.row.parameters.get(n, "") for n in names]])
 
 
-def _generations_csv(r: Run, path: Path) -> None:
-    h = health(r)
+def _generations_csv(h, path: Path) -> None:
     with open(path, "w", newline="") as fh:
         w = csv.writer(fh)
         # statuses and convergence classes share names (oscillating, not_converged): prefixed, so that no two
