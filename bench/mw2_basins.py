@@ -19,13 +19,19 @@ evaluated after the initial population, and the archive's hypervolume against (1
     python bench/mw2_basins.py runs/bench/surrogate/mw2/none/surrogate-warped-coordinate-recent50-6 --probe 30
     python bench/mw2_basins.py runs/bench/surrogate/mw2/none/surrogate-warped-coordinate-recent50-9 --probe 30 \
         --kernel additive
+    python bench/mw2_basins.py runs/bench/surrogate/mw2/none/surrogate-warped-coordinate-recent50-9 --probe 30 \
+        --ensemble
 
 ``--probe GENERATION`` refits a surrogate run's models as the campaign did before that generation (warm-started
 from the hyperparameters it stored with the generation before) and asks
 them, for every far-basin variable of every front design stored before it, what moving that one variable to
 its optimum i/n does to f2: the median predicted and true change, the share of moves predicted to improve
-f2, and the median predicted standard deviation. ``--kernel`` and ``--recent`` fit them otherwise, on the
-same data (another kernel from its default starting hyperparameters: the stored ones are another kernel's).
+f2, the share that could improve it in the infill's optimistic view (the moved design's mean − κ·std below
+the design's mean, κ = ``infill.KAPPA``), and the median predicted standard deviation. ``--kernel`` and
+``--recent`` fit them otherwise, on the same data (another kernel from its default starting
+hyperparameters: the stored ones are another kernel's). ``--ensemble`` mixes the warm-started fit with one
+from the kernel's default start, equally weighted (mean of the means; variance: mean of the variances plus
+the variance of the means), the fit-to-fit disagreement turned into predicted uncertainty.
 """
 
 from __future__ import annotations
@@ -77,14 +83,16 @@ def summary(run: Path) -> tuple[int, float, float, int, list[int], list[int], fl
             float(rows_hypervolume(rows)[-1]))
 
 
-def probe(run: Path, generation: int, kernel: str | None = None,
-          recent: int | None = None) -> tuple[int, int, float, float, float, float]:
+def probe(run: Path, generation: int, kernel: str | None = None, recent: int | None = None,
+          ensemble: bool = False) -> tuple[int, int, float, float, float, float, float]:
     """(front designs, far variables moved, median predicted and true change of f2, share predicted to
-    improve, median predicted std of f2) for the models fitted before ``generation``, warm-started as the
-    campaign's were; kernel, recent: fit them so instead of as the run did."""
+    improve, share that could improve at mean − κ·std, median predicted std of f2) for the models fitted
+    before ``generation``, warm-started as the campaign's were; kernel, recent: fit them so instead of as
+    the run did; ensemble: mixed with a fit from the default start (the module docstring)."""
     from pymoo.problems.multi.mw import MW2
 
     from optimizer.campaign.config import load_campaign
+    from optimizer.campaign.infill import KAPPA
     from optimizer.campaign.offspring import SurrogateOffspring, training_data
     from optimizer.campaign.problem import make_problem
     from optimizer.campaign.store import STORE_NAME, Store, non_dominated
@@ -100,9 +108,13 @@ def probe(run: Path, generation: int, kernel: str | None = None,
         before = [g for g in store.generations() if g.generation < generation]
     # warm-started from the hyperparameters the campaign stored with the generation before, as it was
     theta = (before[-1].search or {}).get("theta") if before and kernel in (None, settings.kernel) else None
-    models = Models(problem.lower, problem.upper, problem.objective_labels, modelled,
-                    kernel=kernel or settings.kernel).fit(data, settings.training, theta,
-                                                          recent=settings.recent if recent is None else recent)
+    def fitted(start):
+        return Models(problem.lower, problem.upper, problem.objective_labels, modelled,
+                      kernel=kernel or settings.kernel).fit(data, settings.training, start,
+                                                            recent=settings.recent if recent is None else recent)
+
+    models = fitted(theta)
+    others = [fitted(None)] if ensemble else []
     keep = non_dominated(np.array([r.minimised for r in rows], float))
     X = np.array([r.x for r, k in zip(rows, keep, strict=True) if k], float)
     n = X.shape[1]
@@ -113,14 +125,17 @@ def probe(run: Path, generation: int, kernel: str | None = None,
             moved[k + 1] = (k + 1) / n
             pairs += [x, moved]
     if not pairs:
-        return len(X), 0, float("nan"), float("nan"), float("nan"), float("nan")
+        return len(X), 0, float("nan"), float("nan"), float("nan"), float("nan"), float("nan")
     Y = np.array(pairs)
-    p = models.predict(Y)
+    fits = [m.predict(Y) for m in [models, *others]]
+    mean = np.mean([p.mean[:, 1] for p in fits], axis=0)
+    std = np.sqrt(np.mean([p.std[:, 1] ** 2 for p in fits], axis=0) + np.var([p.mean[:, 1] for p in fits], axis=0))
     true = MW2(n_var=n).evaluate(Y, return_values_of=["F"])
-    predicted = p.mean[1::2, 1] - p.mean[0::2, 1]
+    predicted = mean[1::2] - mean[0::2]
+    hopeful = mean[1::2] - KAPPA * std[1::2] < mean[0::2]
     actual = true[1::2, 1] - true[0::2, 1]
     return (len(X), len(predicted), float(np.median(predicted)), float(np.median(actual)),
-            float(np.mean(predicted < 0)), float(np.median(p.std[:, 1])))
+            float(np.mean(predicted < 0)), float(np.mean(hopeful)), float(np.median(std)))
 
 
 def main() -> int:
@@ -132,18 +147,21 @@ def main() -> int:
 
     parser.add_argument("--kernel", choices=KERNELS, help="with --probe: fit with this kernel instead of the run's")
     parser.add_argument("--recent", type=int, help="with --probe: fit with this recent instead of the run's")
+    parser.add_argument("--ensemble", action="store_true",
+                        help="with --probe: mix the warm-started fit with one from the default start")
     args = parser.parse_args()
     if args.probe is not None:
         from threadpoolctl import threadpool_limits
 
         print("| run | generation | front designs | far variables moved | change of f2, median: predicted, true "
-              "| predicted to improve | predicted std of f2, median |")
-        print("|---|---|---|---|---|---|---|")
+              "| predicted to improve | could improve (mean − κ·std) | predicted std of f2, median |")
+        print("|---|---|---|---|---|---|---|---|")
         with threadpool_limits(limits=1):
             for run in args.runs:
-                size, moves, predicted, actual, better, std = probe(run, args.probe, args.kernel, args.recent)
+                size, moves, predicted, actual, better, hopeful, std = probe(run, args.probe, args.kernel,
+                                                                             args.recent, args.ensemble)
                 print(f"| {run.name} | {args.probe} | {size} | {moves} | {predicted:+.4f}, {actual:+.4f} "
-                      f"| {better:.0%} | {std:.4f} |")
+                      f"| {better:.0%} | {hopeful:.0%} | {std:.4f} |")
         return 0
     print("| run | front designs | g - 1, median | far-basin variables per design: median, largest | far in most "
           "| at home in ≤ 2 % of the offspring | hypervolume |")
