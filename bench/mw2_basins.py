@@ -21,6 +21,7 @@ evaluated after the initial population, and the archive's hypervolume against (1
         --kernel additive
     python bench/mw2_basins.py runs/bench/surrogate/mw2/none/surrogate-warped-coordinate-recent50-9 --probe 30 \
         --ensemble
+    python bench/mw2_basins.py runs/bench/surrogate/mw2/none/surrogate-warped-coordinate-recent50-* --search 30
 
 ``--probe GENERATION`` refits a surrogate run's models as the campaign did before that generation (warm-started
 from the hyperparameters it stored with the generation before) and asks
@@ -32,6 +33,11 @@ the design's mean, κ = ``infill.KAPPA``), and the median predicted standard dev
 hyperparameters: the stored ones are another kernel's). ``--ensemble`` mixes the warm-started fit with one
 from the kernel's default start, equally weighted (mean of the means; variance: mean of the variances plus
 the variance of the means), the fit-to-fit disagreement turned into predicted uncertainty.
+
+``--search GENERATION`` runs the campaign's coordinate search on the same models, started from the front
+designs stored before that generation, and counts for its mean starts and its optimistic ones the far
+variables it sends home, those it leaves far, and the variables at home at the start that it sends into the
+far basin.
 """
 
 from __future__ import annotations
@@ -83,16 +89,13 @@ def summary(run: Path) -> tuple[int, float, float, int, list[int], list[int], fl
             float(rows_hypervolume(rows)[-1]))
 
 
-def probe(run: Path, generation: int, kernel: str | None = None, recent: int | None = None,
-          ensemble: bool = False) -> tuple[int, int, float, float, float, float, float]:
-    """(front designs, far variables moved, median predicted and true change of f2, share predicted to
-    improve, share that could improve at mean − κ·std, median predicted std of f2) for the models fitted
-    before ``generation``, warm-started as the campaign's were; kernel, recent: fit them so instead of as
-    the run did; ensemble: mixed with a fit from the default start (the module docstring)."""
-    from pymoo.problems.multi.mw import MW2
-
+def refit(run: Path, generation: int, kernel: str | None = None, recent: int | None = None, ensemble: bool = False):
+    """The models of ``run`` fitted before ``generation`` as the campaign fitted them (warm-started from the
+    hyperparameters it stored with the generation before), with what they are asked about: (models — one,
+    or with ``ensemble`` two, the second from the kernel's default start —, front designs ``(k, n)`` and
+    their minimised objectives stored before ``generation``, the run's hypervolume reference point, the
+    problem, its surrogate settings). kernel, recent: fit them so instead of as the run did."""
     from optimizer.campaign.config import load_campaign
-    from optimizer.campaign.infill import KAPPA
     from optimizer.campaign.offspring import SurrogateOffspring, training_data
     from optimizer.campaign.problem import make_problem
     from optimizer.campaign.store import STORE_NAME, Store, non_dominated
@@ -106,17 +109,32 @@ def probe(run: Path, generation: int, kernel: str | None = None, recent: int | N
         data, _, _ = training_data(store, problem, generation, modelled)
         rows = [r for r in store.evaluations() if r.generation < generation and r.feasible]
         before = [g for g in store.generations() if g.generation < generation]
-    # warm-started from the hyperparameters the campaign stored with the generation before, as it was
+        reference = store.campaign().reference
+    # another kernel starts from its default: the stored hyperparameters are the run's kernel's
     theta = (before[-1].search or {}).get("theta") if before and kernel in (None, settings.kernel) else None
+
     def fitted(start):
         return Models(problem.lower, problem.upper, problem.objective_labels, modelled,
                       kernel=kernel or settings.kernel).fit(data, settings.training, start,
                                                             recent=settings.recent if recent is None else recent)
 
-    models = fitted(theta)
-    others = [fitted(None)] if ensemble else []
-    keep = non_dominated(np.array([r.minimised for r in rows], float))
+    models = [fitted(theta)] + ([fitted(None)] if ensemble else [])
+    F = np.array([r.minimised for r in rows], float)
+    keep = non_dominated(F)
     X = np.array([r.x for r, k in zip(rows, keep, strict=True) if k], float)
+    return models, X, F[keep], reference, problem, settings
+
+
+def probe(run: Path, generation: int, kernel: str | None = None, recent: int | None = None,
+          ensemble: bool = False) -> tuple[int, int, float, float, float, float, float]:
+    """(front designs, far variables moved, median predicted and true change of f2, share predicted to
+    improve, share that could improve at mean − κ·std, median predicted std of f2) for the models fitted
+    before ``generation`` (:func:`refit`); with ``ensemble`` their mixture (the module docstring)."""
+    from pymoo.problems.multi.mw import MW2
+
+    from optimizer.campaign.infill import KAPPA
+
+    models, X, _, _, _, _ = refit(run, generation, kernel, recent, ensemble)
     n = X.shape[1]
     pairs = []
     for x in X:
@@ -127,7 +145,7 @@ def probe(run: Path, generation: int, kernel: str | None = None, recent: int | N
     if not pairs:
         return len(X), 0, float("nan"), float("nan"), float("nan"), float("nan"), float("nan")
     Y = np.array(pairs)
-    fits = [m.predict(Y) for m in [models, *others]]
+    fits = [m.predict(Y) for m in models]
     mean = np.mean([p.mean[:, 1] for p in fits], axis=0)
     std = np.sqrt(np.mean([p.std[:, 1] ** 2 for p in fits], axis=0) + np.var([p.mean[:, 1] for p in fits], axis=0))
     true = MW2(n_var=n).evaluate(Y, return_values_of=["F"])
@@ -136,6 +154,29 @@ def probe(run: Path, generation: int, kernel: str | None = None, recent: int | N
     actual = true[1::2, 1] - true[0::2, 1]
     return (len(X), len(predicted), float(np.median(predicted)), float(np.median(actual)),
             float(np.mean(predicted < 0)), float(np.mean(hopeful)), float(np.median(std)))
+
+
+def search(run: Path, generation: int) -> list[tuple[str, int, int, int, int, int, int]]:
+    """Where the campaign's coordinate search (:func:`~optimizer.campaign.infill.search_coordinates`) on the
+    models fitted before ``generation`` takes MW2's distance variables, started from the front designs
+    stored before it: per view (``mean``: the even starts; ``optimistic``: the odd ones, at mean − κ·std), (view,
+    starts, far variables at the starts, of them sent home, of them left in the far basin, variables at home
+    at the starts, of them sent into the far basin). The campaign starts it from the inner search's best
+    designs on the models instead; the front designs are the ones whose variables a step home would
+    improve."""
+    from optimizer.campaign.infill import search_coordinates
+
+    models, X, F, reference, problem, settings = refit(run, generation)
+    moved = search_coordinates(models[0], X, problem.lower, problem.upper, settings.failure_limit,
+                               problem.prescreen, F, reference, np.random.default_rng(generation))
+    before, after, home, was_home = far_basin(X), far_basin(moved), at_home(moved), at_home(X)
+    out = []
+    for parity, view in ((0, "mean"), (1, "optimistic")):
+        rows = np.arange(len(X)) % 2 == parity
+        b, a, h, w = before[rows], after[rows], home[rows], was_home[rows]
+        out.append((view, int(rows.sum()), int(b.sum()), int((b & h).sum()), int((b & a).sum()), int(w.sum()),
+                    int((w & a).sum())))
+    return out
 
 
 def main() -> int:
@@ -149,7 +190,21 @@ def main() -> int:
     parser.add_argument("--recent", type=int, help="with --probe: fit with this recent instead of the run's")
     parser.add_argument("--ensemble", action="store_true",
                         help="with --probe: mix the warm-started fit with one from the default start")
+    parser.add_argument("--search", type=int, metavar="GENERATION",
+                        help="run the coordinate search on the models fitted before this generation from the front")
     args = parser.parse_args()
+    if args.search is not None:
+        from threadpoolctl import threadpool_limits
+
+        print("| run | generation | view | starts | far variables | sent home | left far | variables at home "
+              "| sent far |")
+        print("|---|---|---|---|---|---|---|---|---|")
+        with threadpool_limits(limits=1):
+            for run in args.runs:
+                for view, starts, far, home, left, settled, sent in search(run, args.search):
+                    print(f"| {run.name} | {args.search} | {view} | {starts} | {far} | {home} | {left} | {settled} "
+                          f"| {sent} |")
+        return 0
     if args.probe is not None:
         from threadpoolctl import threadpool_limits
 
