@@ -193,42 +193,40 @@ def main() -> int:
     parser.add_argument("--search", type=int, metavar="GENERATION",
                         help="run the coordinate search on the models fitted before this generation from the front")
     args = parser.parse_args()
+    from threadpoolctl import threadpool_limits
+
     if args.search is not None:
-        from threadpoolctl import threadpool_limits
+        columns = ["run", "generation", "view", "starts", "far variables", "sent home", "left far",
+                   "variables at home", "sent far"]
+        rows = ([run.name, args.search, *counts] for run in args.runs for counts in search(run, args.search))
+    elif args.probe is not None:
+        columns = ["run", "generation", "front designs", "far variables moved",
+                   "change of f2, median: predicted, true", "predicted to improve", "could improve (mean − κ·std)",
+                   "predicted std of f2, median"]
 
-        print("| run | generation | view | starts | far variables | sent home | left far | variables at home "
-              "| sent far |")
-        print("|---|---|---|---|---|---|---|---|---|")
-        with threadpool_limits(limits=1):
-            for run in args.runs:
-                for view, starts, far, home, left, settled, sent in search(run, args.search):
-                    print(f"| {run.name} | {args.search} | {view} | {starts} | {far} | {home} | {left} | {settled} "
-                          f"| {sent} |")
-        return 0
-    if args.probe is not None:
-        from threadpoolctl import threadpool_limits
+        def probed(run):
+            size, moves, predicted, actual, better, hopeful, std = probe(run, args.probe, args.kernel, args.recent,
+                                                                         args.ensemble)
+            return [run.name, args.probe, size, moves, f"{predicted:+.4f}, {actual:+.4f}", f"{better:.0%}",
+                    f"{hopeful:.0%}", f"{std:.4f}"]
 
-        print("| run | generation | front designs | far variables moved | change of f2, median: predicted, true "
-              "| predicted to improve | could improve (mean − κ·std) | predicted std of f2, median |")
-        print("|---|---|---|---|---|---|---|---|")
-        with threadpool_limits(limits=1):
-            for run in args.runs:
-                size, moves, predicted, actual, better, hopeful, std = probe(run, args.probe, args.kernel,
-                                                                             args.recent, args.ensemble)
-                print(f"| {run.name} | {args.probe} | {size} | {moves} | {predicted:+.4f}, {actual:+.4f} "
-                      f"| {better:.0%} | {hopeful:.0%} | {std:.4f} |")
-        return 0
-    print("| run | front designs | g - 1, median | far-basin variables per design: median, largest | far in most "
-          "| at home in ≤ 2 % of the offspring | hypervolume |")
-    print("|---|---|---|---|---|---|---|")
-    for run in args.runs:
-        if not run.is_dir():
-            continue
-        size, excess, median, largest, mostly, unvisited, hv = summary(run)
-        far, rare = (", ".join(f"x{k}" for k in ks) or "-" for ks in (mostly, unvisited))
-        print(f"| {run.name} | {size} | {excess:.4f} | {median:.0f}, {largest} | {far} | {rare} | {hv:.4f} |")
+        rows = (probed(run) for run in args.runs)
+    else:
+        columns = ["run", "front designs", "g - 1, median", "far-basin variables per design: median, largest",
+                   "far in most", "at home in ≤ 2 % of the offspring", "hypervolume"]
+
+        def summarised(run):
+            size, excess, median, largest, mostly, unvisited, hv = summary(run)
+            far, rare = (", ".join(f"x{k}" for k in ks) or "-" for ks in (mostly, unvisited))
+            return [run.name, size, f"{excess:.4f}", f"{median:.0f}, {largest}", far, rare, f"{hv:.4f}"]
+
+        rows = (summarised(run) for run in args.runs if run.is_dir())
+    print("| " + " | ".join(columns) + " |")
+    print("|" + "---|" * len(columns))
+    with threadpool_limits(limits=1):      # the refits are compared across runs: one thread each, as in a campaign
+        for row in rows:
+            print("| " + " | ".join(map(str, row)) + " |", flush=True)
     return 0
-
 
 if __name__ == "__main__":
     sys.exit(main())
