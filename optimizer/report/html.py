@@ -28,6 +28,7 @@ from pathlib import Path
 from optimizer.campaign.fields import read_fields
 from optimizer.report.analysis import (
     TABLE7_COLUMNS,
+    Health,
     convergence,
     fields_designs,
     gallery,
@@ -551,7 +552,7 @@ def _designs_csv(r: Run, p, path: Path) -> None:
                         *[d.row.parameters.get(n, "") for n in names]])
 
 
-def _generations_csv(h, path: Path) -> None:
+def _generations_csv(h: Health, path: Path) -> None:
     with open(path, "w", newline="") as fh:
         w = csv.writer(fh)
         # statuses and convergence classes share names (oscillating, not_converged): prefixed, so that no two
