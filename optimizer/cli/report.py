@@ -20,11 +20,12 @@ def register(sub: argparse._SubParsersAction) -> None:
         help="write a campaign's report: Pareto fronts, Table 7 summary, geometry gallery, health, provenance",
         description="Read the stores of one or more runs (read-only: works while a campaign runs, showing what "
         "has finished) and write a static HTML page that opens without a network, with SVG figures and CSV "
-        "tables beside it: the Pareto fronts |F_Y| vs C_max and C_L vs |C_p,min| (several runs on one plot), a "
-        "Table 7 summary (with the paper's values for its cases), blades and flow fields along the front, the "
-        "hypervolume against the CFD evaluations spent, campaign health per generation, provenance; with two or "
-        "more of the paper's eight cases, the paper study (Table 7 side by side, Fig. 9-13, the paper's "
-        "conclusions tested, mesh dependence). Exit status: 0 written, 2 bad input, 4 not written.",
+        "tables beside it: the Pareto fronts |F_Y| vs C_max and C_L vs |C_p,min| (two runs on one plot, more "
+        "one panel each), a Table 7 summary (with the paper's values for its cases), blades and flow fields "
+        "along the front, the hypervolume against the CFD evaluations spent, campaign health per generation, "
+        "provenance; with two or more of the paper's eight cases, the paper study (Table 7 side by side, Fig. "
+        "9-13, the paper's conclusions tested, mesh dependence). Exit status: 0 written, 2 bad input, 4 not "
+        "written.",
         epilog="Examples:\n  millfoil report runs/quickstart\n"
         "  millfoil report runs/design_g1 runs/toolpath_g1 --out reports/g1 --open\n"
         "  millfoil report runs/examples/paper --out reports/paper\nSee docs/explanation/reports.md.",

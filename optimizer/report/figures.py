@@ -30,51 +30,106 @@ RUN_MARKERS = ("o", "s", "^", "D", "v", "P", "*", "h")
 AXES = {"fy": "|F_Y| over the span [N]", "cl": "C_L [-]", "cmax": "C_max [m/s]", "cpmin": "|C_p,min| [-]"}
 
 
+#: Runs drawn on one Pareto plane together; more get one panel each (small multiples on shared axes), where
+#: fifteen overlaid clouds and their legend would hide one another.
+OVERLAID_RUNS = 2
+
+
 def pareto_figure(runs: list[tuple[Run, list[Point]]], x: str, y: str, path: Path) -> Path:
     """Every solved design of every run in the (x, y) plane: accepted feasible designs as filled markers
     shaded by generation, rejected or constraint-violating ones as open markers by status, oscillating ones
-    with their amplitude as error bars, each run's front as a line."""
-    fig, ax = plt.subplots(figsize=(6.4, 4.4))
+    with their amplitude as error bars, each run's front as a line. Up to :data:`OVERLAID_RUNS` runs share
+    one plane (one marker shape each); more get a panel each, on shared axes, with one legend."""
     gmax = max([max((p.design.row.generation for p in pts), default=0) for _, pts in runs] + [1])
     norm = matplotlib.colors.Normalize(0, gmax)
     cmap = matplotlib.colormaps["viridis"]
-    for k, (run, pts) in enumerate(runs):
-        marker = RUN_MARKERS[k % len(RUN_MARKERS)]
-        colour = f"C{k % 10}"
-        good = [p for p in pts if p.feasible]
-        bad = [p for p in pts if not p.feasible]
-        osc = [p for p in good if p.value("d" + x) or p.value("d" + y)]
-        if osc:
-            ax.errorbar([p.value(x) for p in osc], [p.value(y) for p in osc],
-                        xerr=[p.value("d" + x) for p in osc], yerr=[p.value("d" + y) for p in osc], fmt="none",
-                        ecolor="0.4", elinewidth=0.8, capsize=2, zorder=2)
-        if good:
-            ax.scatter([p.value(x) for p in good], [p.value(y) for p in good],
-                       c=[p.design.row.generation for p in good], cmap=cmap, norm=norm, marker=marker, s=22,
-                       edgecolors=colour, linewidths=0.6, zorder=3, label=f"{run.name}: {len(good)} feasible")
-        for status in sorted({p.status for p in bad}):
-            sel = [p for p in bad if p.status == status]
-            ax.scatter([p.value(x) for p in sel], [p.value(y) for p in sel], marker=STATUS_MARKERS.get(status, "x"),
-                       color="firebrick" if status != EvaluationStatus.OK else "0.5", s=26, linewidths=0.9,
-                       zorder=2, label=f"{run.name}: {len(sel)} "
-                                       f"{'constraint violated' if status == EvaluationStatus.OK else status}")
-        f = front(pts, x, y) if x in ("cmax", "cpmin") else front(pts, y, x)
-        if len(f) > 1:
-            ax.plot([p.value(x) for p in f], [p.value(y) for p in f], "-", color=colour, lw=1.2, zorder=4,
-                    label=f"{run.name}: front ({len(f)})")
-    ax.set_xlabel(AXES[x])
-    ax.set_ylabel(AXES[y])
-    ax.grid(alpha=0.3)
-    if any(pts for _, pts in runs):
-        sm = matplotlib.cm.ScalarMappable(norm=norm, cmap=cmap)
-        fig.colorbar(sm, ax=ax, label="generation")
-        ax.legend(fontsize=7, loc="best")
+    overlaid = len(runs) <= OVERLAID_RUNS
+    cols = 1 if overlaid else min(4, int(np.ceil(np.sqrt(len(runs)))))
+    rows = 1 if overlaid else -(-len(runs) // cols)
+    size = (6.4, 4.4) if overlaid else (2.6 * cols + 1.0, 2.2 * rows + 0.8)
+    fig, axes = plt.subplots(rows, cols, figsize=size, sharex=True, sharey=True, squeeze=False)
+    if overlaid:
+        for k, (run, pts) in enumerate(runs):
+            _pareto_run(axes[0, 0], pts, x, y, norm, RUN_MARKERS[k % len(RUN_MARKERS)], f"C{k % 10}",
+                        f"{run.name}: ")
+        panels = [axes[0, 0]]
     else:
-        ax.text(0.5, 0.5, "no solved design yet", transform=ax.transAxes, ha="center", va="center")
-    fig.tight_layout()
+        for ax, (run, pts) in zip(axes.flat, runs, strict=False):
+            _pareto_run(ax, pts, x, y, norm, "o", "k", "")
+            ax.set_title(f"{run.name} ({sum(p.feasible for p in pts)} feasible)", fontsize=7)
+        for ax in axes.flat[len(runs):]:
+            ax.set_axis_off()
+        panels = list(axes.flat[:len(runs)])
+    for ax in panels:
+        ax.grid(alpha=0.3)
+        ax.tick_params(labelsize=7 if not overlaid else 9)
+    for i, ax in enumerate(panels):
+        if i + cols >= len(panels):                  # nothing below it: this panel carries the x axis
+            ax.xaxis.set_tick_params(labelbottom=True)
+            ax.set_xlabel(AXES[x])
+    for ax in axes[:, 0]:
+        ax.set_ylabel(AXES[y])
+    values = [(p.value(x), p.value(y)) for _, pts in runs for p in pts]
+    if values:
+        # the limits of the markers: an oscillating design's error bar may run off the axes, where a few
+        # large amplitudes would otherwise squeeze every front into a corner
+        for limits, set_limits in zip(np.array(values).T, (axes[0, 0].set_xlim, axes[0, 0].set_ylim),
+                                      strict=True):
+            margin = 0.05 * max(limits.max() - limits.min(), 1e-9)
+            set_limits(limits.min() - margin, limits.max() + margin)
+    else:
+        axes[0, 0].text(0.5, 0.5, "no solved design yet", transform=axes[0, 0].transAxes, ha="center",
+                        va="center")
+    shading = matplotlib.cm.ScalarMappable(norm=norm, cmap=cmap)
+    if overlaid:
+        if values:
+            fig.colorbar(shading, ax=axes[0, 0], label="generation")
+            axes[0, 0].legend(fontsize=7, loc="best")
+        fig.tight_layout()
+    else:
+        bottom, top = 0.8 / size[1], 1 - 0.3 / size[1]
+        fig.subplots_adjust(left=0.6 / size[0], right=1 - 0.9 / size[0], bottom=bottom, top=top, hspace=0.4,
+                            wspace=0.08)
+        fig.colorbar(shading, cax=fig.add_axes((1 - 0.7 / size[0], bottom, 0.12 / size[0], top - bottom)),
+                     label="generation")
+        # one legend entry per kind of mark, not per run: the panels' titles name the runs
+        unique: dict[str, object] = {}
+        for ax in panels:
+            for handle, label in zip(*ax.get_legend_handles_labels(), strict=True):
+                unique.setdefault(label, handle)
+        fig.legend(list(unique.values()), list(unique.keys()), loc="lower center", ncol=min(len(unique), 5),
+                   fontsize=7, frameon=False)
     fig.savefig(path)
     plt.close(fig)
     return path
+
+
+def _pareto_run(ax, pts: list[Point], x: str, y: str, norm, marker: str, colour: str, prefix: str) -> None:
+    """One run's designs on ``ax`` (see :func:`pareto_figure`); legend labels start with ``prefix``."""
+    cmap = matplotlib.colormaps["viridis"]
+    good = [p for p in pts if p.feasible]
+    bad = [p for p in pts if not p.feasible]
+    osc = [p for p in good if p.value("d" + x) or p.value("d" + y)]
+    count = (lambda sel: f"{len(sel)} ") if prefix else (lambda sel: "")
+    if osc:
+        ax.errorbar([p.value(x) for p in osc], [p.value(y) for p in osc],
+                    xerr=[p.value("d" + x) for p in osc], yerr=[p.value("d" + y) for p in osc], fmt="none",
+                    ecolor="0.4", elinewidth=0.8, capsize=2, zorder=2)
+    if good:
+        ax.scatter([p.value(x) for p in good], [p.value(y) for p in good],
+                   c=[p.design.row.generation for p in good], cmap=cmap, norm=norm, marker=marker,
+                   s=22 if prefix else 9, edgecolors=colour, linewidths=0.6 if prefix else 0.2, zorder=3,
+                   label=f"{prefix}{count(good)}feasible" + ("" if prefix else " (shaded by generation)"))
+    for status in sorted({p.status for p in bad}):
+        sel = [p for p in bad if p.status == status]
+        ax.scatter([p.value(x) for p in sel], [p.value(y) for p in sel], marker=STATUS_MARKERS.get(status, "x"),
+                   color="firebrick" if status != EvaluationStatus.OK else "0.5", s=26 if prefix else 14,
+                   linewidths=0.9, zorder=2,
+                   label=f"{prefix}{count(sel)}{'constraint violated' if status == EvaluationStatus.OK else status}")
+    f = front(pts, x, y) if x in ("cmax", "cpmin") else front(pts, y, x)
+    if len(f) > 1:
+        ax.plot([p.value(x) for p in f], [p.value(y) for p in f], "-", color=colour if prefix else "C3", lw=1.2,
+                zorder=4, label=f"{prefix}front ({len(f)})" if prefix else "front")
 
 
 def gallery_figure(run: Run, chosen: list[Point], path: Path) -> Path:
@@ -272,8 +327,10 @@ def convergence_figure(curves: list[Convergence], path: Path) -> Path:
     fig, (left, right) = plt.subplots(1, 2, figsize=(9.6, 3.6), sharey=True)
     for k, c in enumerate(curves):
         label = f"{c.run.name} ({c.run.config.get('algorithm', {}).get('method', 'nsga2')})"
-        left.plot(c.evaluations, c.hypervolume, color=f"C{k % 10}", lw=1.2, label=label)
-        right.plot(c.cpu_hours, c.hypervolume, color=f"C{k % 10}", lw=1.2)
+        # ten colours, then the same colours dashed, dotted...: no two of up to 40 runs look alike
+        style = {"color": f"C{k % 10}", "ls": ("-", "--", ":", "-.")[k // 10 % 4], "lw": 1.2}
+        left.plot(c.evaluations, c.hypervolume, label=label, **style)
+        right.plot(c.cpu_hours, c.hypervolume, **style)
     left.set_xlabel("CFD evaluations (failed ones included)")
     right.set_xlabel("CPU hours of the evaluations")
     left.set_ylabel("hypervolume (normalised over the runs shown)")

@@ -117,14 +117,22 @@ class Run:
 def named_apart(runs: list[Run]) -> list[Run]:
     """``runs`` with names a reader can tell apart: a run whose directory name another run shares is named by
     the shortest tail of its path that no other run ends in (``coarse/design_g1`` beside
-    ``medium/design_g1``); the others keep their directory name."""
+    ``medium/design_g1``), and the runs beside it in the same directory by a tail as long (``medium/toolpath_g1``),
+    so that the runs of one study level read alike; the others keep their directory name."""
     parts = [r.directory.resolve().parts for r in runs]
-    out = []
-    for r, mine in zip(runs, parts, strict=True):
+    depths = []
+    for mine in parts:
         others = [p for p in parts if p is not mine]
         depth = 1
         while depth < len(mine) and any(p[-depth:] == mine[-depth:] for p in others):
             depth += 1
+        depths.append(depth)
+    by_parent: dict[tuple[str, ...], int] = {}
+    for mine, depth in zip(parts, depths, strict=True):
+        by_parent[mine[:-1]] = max(by_parent.get(mine[:-1], 1), depth)
+    out = []
+    for r, mine in zip(runs, parts, strict=True):
+        depth = min(by_parent[mine[:-1]], len(mine))
         out.append(replace(r, label="/".join(mine[-depth:])) if depth > 1 else r)
     return out
 

@@ -270,11 +270,35 @@ def test_convergence_of_a_surrogate_run_beside_a_plain_one(tmp_path):
     assert "out-of-sample error on each batch" in (tmp_path / "r" / "index.html").read_text()
 
 
-def test_runs_sharing_a_directory_name_are_named_by_the_tail_that_tells_them_apart(tmp_path):
+def test_runs_sharing_a_directory_name_and_their_siblings_are_named_by_the_tail_that_tells_them_apart(tmp_path):
     from optimizer.report.run import Run, named_apart
 
     dirs = [tmp_path / "paper" / "coarse" / "design_g1", tmp_path / "paper" / "medium" / "design_g1",
-            tmp_path / "paper" / "medium" / "toolpath_g1", tmp_path / "a" / "x" / "run", tmp_path / "b" / "x" / "run"]
+            tmp_path / "paper" / "medium" / "toolpath_g1", tmp_path / "a" / "x" / "run", tmp_path / "b" / "x" / "run",
+            tmp_path / "plain"]
     named = named_apart([Run(d, None, {}, ()) for d in dirs])
-    assert [r.name for r in named] == ["coarse/design_g1", "medium/design_g1", "toolpath_g1", "a/x/run", "b/x/run"]
+    assert [r.name for r in named] == ["coarse/design_g1", "medium/design_g1", "medium/toolpath_g1", "a/x/run",
+                                       "b/x/run", "plain"]
     assert [r.directory for r in named] == dirs
+
+
+@pytest.mark.slow
+def test_pareto_planes_overlay_two_runs_and_give_more_a_panel_each(runs, tmp_path, monkeypatch):
+    import optimizer.report.figures as figures
+    from optimizer.report.analysis import points
+
+    drawn = []
+    monkeypatch.setattr(figures.plt, "close", drawn.append)     # keep each figure to look at it
+    third = synthetic_run(tmp_path / "design_g1", population=4, generations=2, seed=3)
+    pairs = [(r, points(r)) for r in (load_run(runs[0]), load_run(runs[1]), load_run(third))]
+
+    figures.pareto_figure(pairs[:2], "cmax", "fy", tmp_path / "two.svg")
+    figures.pareto_figure(pairs, "cmax", "fy", tmp_path / "three.svg")
+    two, three = drawn
+    assert len([ax for ax in two.axes if ax.get_label() != "<colorbar>"]) == 1
+    assert {t.get_text().split(":")[0] for t in two.axes[0].get_legend().get_texts()} == {r.name for r, _ in pairs[:2]}
+    titles = [ax.get_title() for ax in three.axes if ax.get_title()]
+    assert titles == [f"{r.name} ({sum(p.feasible for p in pts)} feasible)" for r, pts in pairs]
+    labels = [t.get_text() for t in three.legends[0].get_texts()]
+    assert len(labels) == len(set(labels)) and "front" in labels          # one entry per kind of mark
+    assert all((tmp_path / name).stat().st_size > 0 for name in ("two.svg", "three.svg"))
