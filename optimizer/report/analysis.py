@@ -39,7 +39,7 @@ TABLE7_COLUMNS = (("Max |F_Y| [N]", "fy", True), ("Max C_L [-]", "cl", True), ("
 @dataclass(frozen=True)
 class Point:
     """One design in the paper's planes. fy: |F_Y| over the span, N; cl: C_L; cmax: C_max, m/s; cpmin:
-    |C_p,min|; d*: the oscillation amplitude of each (0 unless oscillating)."""
+    |C_p,min|; d*: the oscillation amplitude of each (0 unless the design's convergence class is oscillating)."""
 
     design: Design
     fy: float
@@ -81,7 +81,9 @@ def points(run: Run) -> list[Point]:
         cpmin = abs(f["cp_min"]) if f.get("cp_min") is not None else abs(pressure_coefficient_min(cmax, c0))
         if not all(np.isfinite([fy, cl, cmax, cpmin])):
             continue
-        m = d.row.monitors or {}
+        # a design the stop test found converged keeps its values and has no amplitude, whatever its monitors'
+        # window says: a solve that converged within the window (200 iterations) has its start-up in it
+        m = (d.row.monitors or {}) if d.row.convergence == ConvergenceClass.OSCILLATING else {}
         amp_f = _amplitude(m, "fy:blade")
         scale = abs(fy_span / f["fy"]) if f.get("fy") else 1.0
         amp_c = _amplitude(m, "c_max")

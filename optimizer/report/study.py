@@ -16,11 +16,12 @@ fields files exist): no CFD, no geometry, no drawing.
 Runs are compared only within one mesh level (:func:`mesh_level`); where two runs of one case share a level,
 the first given is used and the others are named in :attr:`StudyLevel.ignored`.
 
-Verdict rules (also in ``docs/explanation/reports.md``). Every figure carries the oscillation amplitude of
-the designs that set it (0 for a steady design): ``u`` below is the sum of the amplitudes of the two
-designs compared, in the figure's unit. A class's test is decided only when it gives the same answer
+Verdict rules (also in ``docs/explanation/reports.md``). Every figure carries the uncertainty of the
+designs that set it: an oscillating design's amplitude, and at least :data:`STEADY_TOLERANCE` (10⁻³) of the
+figure, the accuracy the solver's stop test gives a steady one; ``u`` below is the sum of the two designs'
+uncertainties, in the figure's unit. A class's test is decided only when it gives the same answer
 anywhere within ±u; otherwise it "cannot tell". Over the continuity classes: "does not hold" if any class
-does not, else "cannot tell" if any class cannot tell or none can be tested, else "holds".
+does not, else "cannot tell" if any class cannot tell or cannot be tested (a run missing), else "holds".
 
 (a) Lift difference below 4 %: per continuity class with both approaches,
     r = |F_d − F_t| / max(F_d, F_t) of the two runs' max |F_Y| (N); holds if (|F_d − F_t| + u) / max < 4 %,
@@ -55,6 +56,10 @@ CONTINUITIES = ("G1", "C1", "G2", "C2")
 MODES = ("design", "toolpath")
 #: Claim (a): the largest relative lift difference between the approaches the paper states (4 %).
 LIFT_DIFFERENCE = 0.04
+#: Relative accuracy of a steady design's figures: the solver's stop test ends a solve when its F_Y and C_max
+#: are within 10⁻³ of their extrapolated fixed point (``stop_tol``, decision 0013), and a stationary solve's
+#: monitors vary by at most 10⁻³ over their window (``classify_tol``).
+STEADY_TOLERANCE = 1e-3
 #: Claim (c): the band read into "about 15 % lower" (15 ± 5 points).
 C2_LIFT_DROP = (0.10, 0.20)
 #: Designs along the G1 fronts for Fig. 10–13 (the paper shows six).
@@ -342,11 +347,12 @@ def decide(low: float, high: float, holds: Callable[[float], bool]) -> Verdict:
     return Verdict.HOLDS if a and b else Verdict.FAILS if not a and not b else Verdict.CANNOT_TELL
 
 
-def combine(verdicts: list[Verdict]) -> Verdict:
-    """Over classes: does not hold if any does not; cannot tell if any cannot or there is none; holds."""
+def combine(verdicts: list[Verdict], expected: int) -> Verdict:
+    """Over the ``expected`` classes a claim speaks of, ``verdicts`` those that could be tested: does not hold
+    if any does not; cannot tell if any cannot or one could not be tested (a run is missing); holds."""
     if Verdict.FAILS in verdicts:
         return Verdict.FAILS
-    return Verdict.CANNOT_TELL if not verdicts or Verdict.CANNOT_TELL in verdicts else Verdict.HOLDS
+    return Verdict.CANNOT_TELL if len(verdicts) < expected or Verdict.CANNOT_TELL in verdicts else Verdict.HOLDS
 
 
 def _paper(c: Case, quantity: str) -> float:
@@ -366,8 +372,12 @@ def _extremes(level: StudyLevel, quantity: str, best_max: bool):
             yield k, (*d, ed), (*t, et)
 
 
-def _amplitude(p: Point, quantity: str) -> float:
-    return p.value("d" + quantity) if p.status == EvaluationStatus.OK else 0.0
+def _uncertainty(p: Point, quantity: str) -> float:
+    """How far the true value of ``quantity`` of an accepted design may lie from its figure: the oscillation
+    amplitude, and at least the :data:`STEADY_TOLERANCE` of the figure (in the figure's unit)."""
+    if p.status != EvaluationStatus.OK:
+        return 0.0
+    return max(p.value("d" + quantity), STEADY_TOLERANCE * abs(p.value(quantity)))
 
 
 def claim_lift_difference(level: StudyLevel) -> Claim:
@@ -375,7 +385,7 @@ def claim_lift_difference(level: StudyLevel) -> Claim:
     verdicts, ours, paper, designs = [], [], [], []
     for k, (rd, pd, fd), (rt, pt, ft) in _extremes(level, "fy", True):
         top, diff = max(fd.fy, ft.fy), abs(fd.fy - ft.fy)
-        u = _amplitude(fd, "fy") + _amplitude(ft, "fy")
+        u = _uncertainty(fd, "fy") + _uncertainty(ft, "fy")
         verdicts.append(decide(max(diff - u, 0.0), diff + u, lambda d, top=top: d / top < LIFT_DIFFERENCE))
         ours.append(f"{k} {100 * diff / top:.1f} % (±{100 * u / top:.1f})" if u else f"{k} {100 * diff / top:.1f} %")
         a, b = _paper(("design", k), "fy"), _paper(("toolpath", k), "fy")
@@ -383,21 +393,21 @@ def claim_lift_difference(level: StudyLevel) -> Claim:
         designs += [used(rd, ("design", k), pd, "fy", True), used(rt, ("toolpath", k), pt, "fy", True)]
     return Claim("a", "The lift difference between the design and tool-path approaches is always below 4 % "
                  "(within the ±5 N fluctuation of the stalled solves).", level.level, _join(ours), _join(paper),
-                 combine(verdicts), tuple(designs))
+                 combine(verdicts, len(CONTINUITIES)), tuple(designs))
 
 
 def claim_cmax_toolpath(level: StudyLevel) -> Claim:
     """(b) C_max (and |C_p,min|) is always greater for the tool-path approach (module docstring: rule)."""
     verdicts, ours, paper, designs = [], [], [], []
     for k, (rd, pd, cd), (rt, pt, ct) in _extremes(level, "cmax", False):
-        delta, u = ct.cmax - cd.cmax, _amplitude(cd, "cmax") + _amplitude(ct, "cmax")
+        delta, u = ct.cmax - cd.cmax, _uncertainty(cd, "cmax") + _uncertainty(ct, "cmax")
         verdicts.append(decide(delta - u, delta + u, lambda d: d > 0.0))
         ours.append(f"{k} {ct.cmax:.2f} vs {cd.cmax:.2f} m/s (|C_p,min| {ct.cpmin:.2f} vs {cd.cpmin:.2f})")
         paper.append(f"{k} {_paper(('toolpath', k), 'cmax'):.2f} vs {_paper(('design', k), 'cmax'):.2f} m/s")
         designs += [used(rt, ("toolpath", k), pt, "cmax", False), used(rd, ("design", k), pd, "cmax", False)]
     return Claim("b", "C_max (and |C_p,min|) is always greater for the tool-path approach: min C_max(tool path) "
                  "> min C_max(design) in every continuity class.", level.level, _join(ours), _join(paper),
-                 combine(verdicts), tuple(designs))
+                 combine(verdicts, len(CONTINUITIES)), tuple(designs))
 
 
 def claim_c2_lift(level: StudyLevel) -> Claim:
@@ -412,7 +422,7 @@ def claim_c2_lift(level: StudyLevel) -> Claim:
         if low is None or not best:
             continue
         k, r, p, top = max(best, key=lambda b: b[3].fy)
-        ul, ut = _amplitude(low, "fy"), _amplitude(top, "fy")
+        ul, ut = _uncertainty(low, "fy"), _uncertainty(top, "fy")
         drop = 1.0 - low.fy / top.fy
         lo_end, hi_end = 1.0 - (low.fy + ul) / max(top.fy - ut, 1e-12), 1.0 - max(low.fy - ul, 0.0) / (top.fy + ut)
         verdicts.append(decide(lo_end, hi_end, lambda d: C2_LIFT_DROP[0] <= d <= C2_LIFT_DROP[1]))
@@ -422,9 +432,7 @@ def claim_c2_lift(level: StudyLevel) -> Claim:
         paper.append(f"{name} {100 * (1 - _paper((mode, 'C2'), 'fy') / _paper((mode, ref), 'fy')):.1f} % "
                      f"(C2 vs {ref})")
         designs += [used(c2[0], (mode, "C2"), c2[1], "fy", True), used(r, (mode, k), p, "fy", True)]
-    verdict = combine(verdicts)
-    if verdict == Verdict.HOLDS and len(verdicts) < len(MODES):
-        verdict = Verdict.CANNOT_TELL             # "for both approaches": one alone cannot show it holds
+    verdict = combine(verdicts, len(MODES))      # "for both approaches": one alone cannot show it holds
     return Claim("c", "With C2 continuity the maximum lift is about 15 % lower for both approaches: "
                  "1 − F_Y,max(C2) / max over G1, C1, G2 of F_Y,max within 10–20 %.", level.level, _join(ours),
                  _join(paper), verdict, tuple(designs))

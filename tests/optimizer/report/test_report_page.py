@@ -302,3 +302,21 @@ def test_pareto_planes_overlay_two_runs_and_give_more_a_panel_each(runs, tmp_pat
     labels = [t.get_text() for t in three.legends[0].get_texts()]
     assert len(labels) == len(set(labels)) and "front" in labels          # one entry per kind of mark
     assert all((tmp_path / name).stat().st_size > 0 for name in ("two.svg", "three.svg"))
+
+
+def test_a_converged_design_has_no_amplitude_whatever_its_monitor_window_says(runs):
+    """A solve the stop test found converged within the monitors' window (200 iterations) has its start-up in
+    that window, which may read as an oscillation: its values are steady, and no error bar is drawn."""
+    from dataclasses import replace
+
+    from optimizer.report.analysis import points
+    from solver.convergence import ConvergenceClass
+
+    run = load_run(runs[0])
+    converged = next(d for d in run.designs if d.row.convergence == ConvergenceClass.CONVERGED and d.row.figures)
+    oscillating = next(d for d in run.designs if d.row.convergence == ConvergenceClass.OSCILLATING and d.row.figures)
+    window = {name: {**m, "status": "oscillating", "amplitude": 40.0} for name, m in converged.row.monitors.items()}
+    changed = replace(converged, row=replace(converged.row, monitors=window))
+    drawn = {p.design.number: p for p in points(replace(run, designs=(changed, oscillating)))}
+    assert drawn[converged.number].dfy == drawn[converged.number].dcmax == 0.0
+    assert drawn[oscillating.number].dfy > 0.0 and drawn[oscillating.number].dcmax > 0.0
