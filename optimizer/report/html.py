@@ -60,6 +60,7 @@ from optimizer.report.study import (
     mesh_dependence,
     steadiness,
     study_levels,
+    study_order,
     table7_rows,
 )
 from optimizer.saving import check_output_directory, write_all
@@ -93,9 +94,10 @@ def write_report(runs: list[Run], out: Path, option: str = "--out") -> Path:
     files: Files = {}
     pts = [points(r) for r in runs]
     pairs = list(zip(runs, pts, strict=True))
-    files["pareto_fy_cmax.svg"] = partial(pareto_figure, pairs, "cmax", "fy")
-    files["pareto_cl_cpmin.svg"] = partial(pareto_figure, pairs, "cpmin", "cl")
     study = is_study(runs)
+    drawn = [pairs[i] for i in study_order(runs)] if study else pairs     # a study's panels in Table 7's order
+    files["pareto_fy_cmax.svg"] = partial(pareto_figure, drawn, "cmax", "fy")
+    files["pareto_cl_cpmin.svg"] = partial(pareto_figure, drawn, "cpmin", "cl")
     sections = [_fronts(runs, pts), _summary(runs, pts), _study(runs, pts, files) if study else "",
                 _gallery(runs, pts, files), _fields(runs, pts, files), _convergence(runs, files), _health(runs, files),
                 _provenance(runs)]
@@ -184,7 +186,10 @@ def _summary(runs: list[Run], pts) -> str:
 def _study(runs: list[Run], pts, files: Files) -> str:
     """The "Paper study" section (:mod:`optimizer.report.study`): Table 7 side by side, Fig. 9, the G1 pairs
     of Fig. 10–13 at each mesh level that has both G1 runs, the claims table, and the fronts of each case run
-    at two mesh levels read side by side (only where there is one)."""
+    at two mesh levels read side by side (only where there is one); runs in Table 7's order (:func:`study_order`,
+    which keeps the runs of one case and level in the order given)."""
+    order = study_order(runs)
+    runs, pts = [runs[i] for i in order], [pts[i] for i in order]
     parts = ["<h2 id=\"study\">Paper study</h2>\n<p class=\"note\">The runs of the paper's cases (blade family "
              "and objectives max |F_Y|, min C_max) beside Vessaz et al. (2013), compared within one mesh level. "
              "The paper's channel and mesh differ from ours (docs/explanation/campaigns.md): compare magnitudes "

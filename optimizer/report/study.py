@@ -54,6 +54,8 @@ from solver.convergence import ConvergenceClass
 CONTINUITIES = ("G1", "C1", "G2", "C2")
 #: The two approaches: designed blades and blades defined by their milling tool path.
 MODES = ("design", "toolpath")
+#: The mesh levels, coarsest first.
+LEVEL_ORDER = {"coarse": 0, "medium": 1, "fine": 2}
 #: Claim (a): the largest relative lift difference between the approaches the paper states (4 %).
 LIFT_DIFFERENCE = 0.04
 #: Relative accuracy of a steady design's figures: the solver's stop test ends a solve when its F_Y and C_max
@@ -107,6 +109,20 @@ def is_study(runs: list[Run]) -> bool:
     return len({c for r in runs if (c := case(r)) is not None}) >= 2
 
 
+def study_order(runs: list[Run]) -> list[int]:
+    """Indices of ``runs`` in the paper's order: by mesh level (coarse, medium, fine, then any other), design
+    before tool path, G1, C1, G2, C2 (Table 7's rows); runs that are not paper cases after them, as given."""
+    def key(i: int):
+        c = case(runs[i])
+        if c is None:
+            return (1, "", 0, 0, i)
+        level = mesh_level(runs[i])
+        return (0, f"{LEVEL_ORDER.get(level, len(LEVEL_ORDER))}{level}", MODES.index(c[0]), CONTINUITIES.index(c[1]),
+                i)
+
+    return sorted(range(len(runs)), key=key)
+
+
 def cfd_evaluations(run: Run) -> int:
     """Designs that reached the CFD (every stored design but the geometrically infeasible ones)."""
     return sum(d.row.status != EvaluationStatus.INFEASIBLE for d in run.designs)
@@ -135,9 +151,8 @@ def study_levels(runs: list[Run], pts: list[list[Point]]) -> list[StudyLevel]:
             ignored.setdefault(mesh_level(r), []).append(r.name)
         else:
             cases[c] = (r, p)
-    order = {"coarse": 0, "medium": 1, "fine": 2}
     return [StudyLevel(lv, grouped[lv], tuple(ignored.get(lv, ())))
-            for lv in sorted(grouped, key=lambda lv: (order.get(lv, 3), lv))]
+            for lv in sorted(grouped, key=lambda lv: (LEVEL_ORDER.get(lv, len(LEVEL_ORDER)), lv))]
 
 
 # ---------------------------------------------------------------------------------------- Table 7

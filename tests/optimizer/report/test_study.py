@@ -32,6 +32,7 @@ from optimizer.report.study import (
     pair_fronts,
     spread,
     study_levels,
+    study_order,
     table7_rows,
 )
 from optimizer.report.synthetic import synthetic_run
@@ -394,3 +395,11 @@ def test_steady_tolerance_is_the_solvers_stop_and_stationary_tolerance():
     from solver.settings import SimpleSettings
 
     assert SimpleSettings().stop_tol == SimpleSettings().classify_tol == STEADY_TOLERANCE
+
+
+def test_study_order_is_table_7s_by_mesh_level_with_other_runs_last():
+    runs = [fake_run("toolpath", "G1", "medium"), fake_run("design", "C2", "coarse"),
+            fake_run("design", "G1", "medium"), fake_run("toolpath", "G1", "coarse"),
+            dataclasses.replace(fake_run("design", "G1", "coarse"), config={"blade": {"mode": "design"}}),
+            fake_run("design", "G1", "coarse"), fake_run("design", "G1", "fine")]
+    assert study_order(runs) == [5, 1, 3, 2, 0, 6, 4]
