@@ -380,18 +380,22 @@ def study_pairs_figure(g1, walls: dict[str, dict | None], path: Path) -> Path:
     :class:`optimizer.report.study.G1Pairs`; ``walls``: {design key: arrays of its fields file or None}."""
     pairs = g1.pairs
     n = max(len(pairs), 1)
-    fig = plt.figure(figsize=(max(2.3 * n, 7.0), 10.0))
-    grid = fig.add_gridspec(4, n, height_ratios=[1.5, 1, 1, 1])
+    fig = plt.figure(figsize=(max(2.3 * n, 7.0), 8.6))
+    # the blades are drawn to scale: a 100 mm chord over a panel's width leaves them a short row
+    grid = fig.add_gridspec(4, n, height_ratios=[1.5, 0.65, 0.65, 1])
     top = fig.add_subplot(grid[0, :])
     for run, f, colour, marker in ((g1.design, g1.design_front, "C0", "o"),
                                    (g1.toolpath, g1.toolpath_front, "C3", "^")):
         top.plot([p.cpmin for p in f], [p.cl for p in f], "-", color=colour, marker=marker, ms=3, lw=0.9,
                  label=f"{run.name}: front")
     for pair in pairs:
-        for p, colour in ((pair.design, "C0"), (pair.toolpath, "C3")):
+        # the design's number above left of its ring, the tool path's below right: the two fronts run close
+        for p, colour, offset in ((pair.design, "C0", (-11, 4)), (pair.toolpath, "C3", (4, -11))):
             if p is not None:
+                top.scatter([p.cpmin], [p.cl], s=70, facecolors="none", edgecolors=colour, linewidths=1.3, zorder=5)
                 top.annotate(str(pair.index), (p.cpmin, p.cl), color=colour, fontsize=8, fontweight="bold",
-                             xytext=(3, 3), textcoords="offset points")
+                             xytext=offset, textcoords="offset points", zorder=6,
+                             bbox={"boxstyle": "round,pad=0.1", "fc": "white", "ec": "none", "alpha": 0.8})
     top.set_xlabel(AXES["cpmin"])
     top.set_ylabel(AXES["cl"])
     top.grid(alpha=0.3)
