@@ -138,7 +138,8 @@ def gallery_figure(run: Run, chosen: list[Point], path: Path) -> Path:
     n = max(len(chosen), 1)
     cols = min(n, 3)
     rows = -(-n // cols)
-    fig, axes = plt.subplots(rows, cols, figsize=(3.3 * cols, 2.9 * rows), squeeze=False)
+    # the blades are drawn to scale (a 100 mm chord, 20-40 mm high): short rows
+    fig, axes = plt.subplots(rows, cols, figsize=(3.3 * cols, 1.8 * rows + 0.4), squeeze=False)
     for ax in axes.flat:
         ax.set_axis_off()
     for ax, p in zip(axes.flat, chosen, strict=False):
@@ -217,6 +218,7 @@ def health_figure(h: Health, path: Path) -> Path:
             ax.legend(fontsize=6)
     ax = axes[0, 2]
     _columns(ax, g, h.cache_hits, color="C4")
+    ax.set_ylim(0, max([1, *h.cache_hits]) * 1.05)      # a run without hits: an empty axis from 0, not ±0.05
     ax.set_title("cache hits")
     ax = axes[1, 2]
     if h.times:
