@@ -115,10 +115,9 @@ def study_order(runs: list[Run]) -> list[int]:
     def key(i: int):
         c = case(runs[i])
         if c is None:
-            return (1, "", 0, 0, i)
+            return (1, 0, "", 0, 0, i)
         level = mesh_level(runs[i])
-        return (0, f"{LEVEL_ORDER.get(level, len(LEVEL_ORDER))}{level}", MODES.index(c[0]), CONTINUITIES.index(c[1]),
-                i)
+        return (0, LEVEL_ORDER.get(level, len(LEVEL_ORDER)), level, MODES.index(c[0]), CONTINUITIES.index(c[1]), i)
 
     return sorted(range(len(runs)), key=key)
 
