@@ -149,13 +149,13 @@ def test_claim_a_names_an_excluded_design_beyond_the_maximum():
 
 
 def test_claim_b_cmax_greater_for_the_tool_path():
-    holds = every_class(point(cmax=12.1), point(cmax=12.3), {("toolpath", k): point(cmax=12.2) for k in
-                                                              ("C1", "G2", "C2")}, cmax=12.0)
+    above = {("toolpath", k): point(cmax=12.2) for k in ("C1", "G2", "C2")}     # 0.2 m/s above the designs
+    holds = every_class(point(cmax=12.1), point(cmax=12.3), above, cmax=12.0)
     assert claim_cmax_toolpath(holds).verdict == Verdict.HOLDS
     fails = level_of({("design", "G1"): [point(cmax=12.1)], ("toolpath", "G1"): [point(cmax=12.0)]})
     assert claim_cmax_toolpath(fails).verdict == Verdict.FAILS
     # steady designs 0.01 m/s apart: within the stop test's 10⁻³ of each (±0.024 m/s together)
-    equal = every_class(point(cmax=12.1), point(cmax=12.09), cmax=12.0)
+    equal = every_class(point(cmax=12.1), point(cmax=12.09), above, cmax=12.0)
     assert claim_cmax_toolpath(equal).verdict == Verdict.CANNOT_TELL
     marginal = level_of({("design", "G1"): [point(cmax=12.1)], ("toolpath", "G1"): [point(cmax=12.12, dcmax=0.05)]})
     assert claim_cmax_toolpath(marginal).verdict == Verdict.CANNOT_TELL
