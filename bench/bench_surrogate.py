@@ -27,6 +27,7 @@ archive's front against ZDT1's true front.
     python bench/bench_surrogate.py --cases mw2 mw3 --kernel warped --coordinate-search --stop-at-target
     python bench/bench_surrogate.py --cases dtlz2 --kernel warped --coordinate-search --recent 50 --stop-at-target
     python bench/bench_surrogate.py --cases mw2 --kernel warped --coordinate-search --recent 50 --training 250
+    python bench/bench_surrogate.py --cases mw2 --kernel warped --coordinate-search --initial 100 --stop-at-target
     python bench/bench_surrogate.py --report-only --json docs/figures/surrogate.json
     python bench/bench_surrogate.py --igd-only --kernel additive --coordinate-search   # pysamoo's budget only
 """
@@ -206,6 +207,9 @@ def main() -> int:
     parser.add_argument("--out", type=Path, default=ROOT / "runs" / "bench" / "surrogate")
     parser.add_argument("--report-only", action="store_true", help="summarise the stores already there")
     parser.add_argument("--json", type=Path, help="also write the figures here")
+    # the blade benchmark names its runs the same way
+    from bench_surrogate_blade import DEFAULT_EXPLORATION, DEFAULT_TRAINING, rule_name
+
     from optimizer.campaign.config import KERNELS
 
     parser.add_argument("--kernel", choices=KERNELS, default="product",
@@ -215,6 +219,10 @@ def main() -> int:
                         help="algorithm.surrogate.coordinate_search (runs named surrogate[-KERNEL]-coordinate-N)")
     parser.add_argument("--recent", type=int, default=0,
                         help="algorithm.surrogate.recent (runs named surrogate[-KERNEL][-coordinate]-recentR-N)")
+    parser.add_argument("--initial", type=int, default=0,
+                        help="algorithm.surrogate.initial (runs named ...-initialI-N)")
+    parser.add_argument("--exploration", type=float, default=DEFAULT_EXPLORATION,
+                        help="algorithm.surrogate.exploration (runs named ...-explorationE-N when not the default)")
     parser.add_argument("--training", type=int, default=200,
                         help="algorithm.surrogate.training (runs named ...-trainingT-N when not 200)")
     parser.add_argument("--stop-at-target", action="store_true",
@@ -229,11 +237,14 @@ def main() -> int:
         settings["coordinate_search"] = True
     if args.recent:
         settings["recent"] = args.recent
-    from bench_surrogate_blade import DEFAULT_TRAINING, rule_name  # the blade benchmark names its runs the same way
+    if args.initial:
+        settings["initial"] = args.initial
+    if args.exploration != DEFAULT_EXPLORATION:
+        settings["exploration"] = args.exploration
 
     if args.training != DEFAULT_TRAINING:
         settings["training"] = args.training
-    name = rule_name(args.kernel, args.coordinate_search, args.recent, args.training)
+    name = rule_name(args.kernel, args.coordinate_search, args.recent, args.training, args.initial, args.exploration)
     algorithm = {**METHODS["surrogate"], "surrogate": settings} if settings else METHODS["surrogate"]
     plain = [(args.out / c / f / f"plain-{s}", campaign(c, f, "plain", s)) for f in args.failures
              for c in args.cases for s in seeds if not args.igd_only]

@@ -42,26 +42,32 @@ PLAIN_BUDGET, SURROGATE_BUDGET = 5000, 1000
 
 
 #: ``algorithm.surrogate.training``'s default: a rule with another cap is named for it.
-DEFAULT_TRAINING = 200
+DEFAULT_TRAINING, DEFAULT_EXPLORATION = 200, 0.25
 
 
 def rule_name(kernel: str = "product", coordinate_search: bool = False, recent: int = 0,
-              training: int = DEFAULT_TRAINING) -> str:
+              training: int = DEFAULT_TRAINING, initial: int = 0, exploration: float = DEFAULT_EXPLORATION) -> str:
     """The surrogate runs' name: ``surrogate`` for the default rule, ``surrogate-warped-coordinate``,
-    ``surrogate-warped-coordinate-recent50-training250`` and the like for another
+    ``surrogate-warped-coordinate-recent50-training250``, ``surrogate-warped-coordinate-initial100`` and the
+    like for another
     (``bench/bench_surrogate.py`` names its runs with it too)."""
     return "-".join(["surrogate", *([kernel] if kernel != "product" else []),
                      *(["coordinate"] if coordinate_search else []), *([f"recent{recent}"] if recent else []),
-                     *([f"training{training}"] if training != DEFAULT_TRAINING else [])])
+                     *([f"initial{initial}"] if initial else []),
+                     *([f"training{training}"] if training != DEFAULT_TRAINING else []),
+                     *([f"exploration{exploration:g}"] if exploration != DEFAULT_EXPLORATION else [])])
 
 
 def rule_settings(kernel: str = "product", coordinate_search: bool = False, recent: int = 0,
-                  training: int = DEFAULT_TRAINING) -> list[str]:
+                  training: int = DEFAULT_TRAINING, initial: int = 0,
+                  exploration: float = DEFAULT_EXPLORATION) -> list[str]:
     """The command-line settings of a surrogate rule other than the default."""
     return [*([f"algorithm.surrogate.kernel={kernel}"] if kernel != "product" else []),
             *(["algorithm.surrogate.coordinate_search=true"] if coordinate_search else []),
             *([f"algorithm.surrogate.recent={recent}"] if recent else []),
-            *([f"algorithm.surrogate.training={training}"] if training != DEFAULT_TRAINING else [])]
+            *([f"algorithm.surrogate.initial={initial}"] if initial else []),
+            *([f"algorithm.surrogate.training={training}"] if training != DEFAULT_TRAINING else []),
+            *([f"algorithm.surrogate.exploration={exploration:g}"] if exploration != DEFAULT_EXPLORATION else [])]
 
 
 def run_dirs(out: Path, case: str, methods, seeds, rule: str = "surrogate") -> list[tuple[str, int, Path]]:
@@ -171,16 +177,21 @@ def main() -> int:
                         help="algorithm.surrogate.coordinate_search (runs named surrogate[-KERNEL]-coordinate-N)")
     parser.add_argument("--recent", type=int, default=0,
                         help="algorithm.surrogate.recent (runs named surrogate[-KERNEL][-coordinate]-recentR-N)")
+    parser.add_argument("--initial", type=int, default=0,
+                        help="algorithm.surrogate.initial (runs named ...-initialI-N)")
+    parser.add_argument("--exploration", type=float, default=DEFAULT_EXPLORATION,
+                        help="algorithm.surrogate.exploration (runs named ...-explorationE-N when not the default)")
     parser.add_argument("--training", type=int, default=DEFAULT_TRAINING,
                         help="algorithm.surrogate.training (runs named ...-trainingT-N when not 200)")
     args = parser.parse_args()
-    rule = rule_name(args.kernel, args.coordinate_search, args.recent, args.training)
+    rule = rule_name(args.kernel, args.coordinate_search, args.recent, args.training, args.initial, args.exploration)
     if not args.report_only:
         # surrogate seed 1 of every case first, plain NSGA-II (5 000 evaluations each) last
         work = [(case, *item) for case in args.cases
                 for item in run_dirs(args.out, case, args.methods, range(1, args.seeds + 1), rule)]
         work.sort(key=lambda w: (w[1] == "nsga2", w[2]))
-        settings = rule_settings(args.kernel, args.coordinate_search, args.recent, args.training)
+        settings = rule_settings(args.kernel, args.coordinate_search, args.recent, args.training, args.initial,
+                                 args.exploration)
         for case, method, seed, directory in work:
             run_one(case, method, seed, directory, args.workers, settings)
     report(args.out, args.cases)

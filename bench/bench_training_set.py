@@ -6,9 +6,9 @@ so once the store holds more designs than the cap the models never learn from th
 infill can go on sending batches to a region they keep misjudging. This script refits the models of a
 finished run at the given generations exactly as the campaign did (same training data, kernel and cap) and
 with the newest ``--recent`` designs kept whatever their rank (``algorithm.surrogate.recent``; the rest of
-the cap by rank), and asks both
-about the batch the run evaluated at that generation: the error the campaign made, and the one it would
-have made.
+the cap by rank) and, with ``--initial``, the first designs stored (``algorithm.surrogate.initial``: the
+initial population, spread over the box), and asks each about the batch the run evaluated at that
+generation: the error the campaign made, and the ones it would have made.
 
 Figures per generation and rule, for each objective: the mean signed error of the prediction (predicted −
 computed, in units of the objective's spread over the designs stored before that generation: negative
@@ -19,6 +19,8 @@ median standardised error |predicted − computed| / predicted std (about 0.67 f
         --stop-at-target --out runs/bench/surrogate
     python bench/bench_training_set.py runs/bench/surrogate/dtlz2/none/surrogate-warped-coordinate-3 \\
         --generations 10 20 30 40
+    python bench/bench_training_set.py runs/bench/surrogate/dtlz2/none/surrogate-warped-coordinate-3 \
+        --generations 20 30 40 --initial 100
 """
 
 from __future__ import annotations
@@ -33,7 +35,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 
-def refit(run: Path, generations: list[int], recent: int):
+def refit(run: Path, generations: list[int], recent: int, initial: int = 0):
     """Per generation and rule: (generation, name, mean signed error per objective in units of the spread of
     the designs stored before it, median |z| per objective)."""
     from optimizer.campaign.config import load_campaign
@@ -44,11 +46,11 @@ def refit(run: Path, generations: list[int], recent: int):
     problem = make_problem(config)
     with Store(run / STORE_NAME, readonly=True) as store:
         for generation in generations:
-            for name, bias, z in _refit_at(config, problem, store, generation, recent):
+            for name, bias, z in _refit_at(config, problem, store, generation, recent, initial):
                 yield generation, name, bias, z
 
 
-def _refit_at(config, problem, store, generation: int, recent: int):
+def _refit_at(config, problem, store, generation: int, recent: int, initial: int):
     from optimizer.campaign.offspring import SurrogateOffspring, training_data
     from optimizer.campaign.surrogate import Models
 
@@ -63,10 +65,14 @@ def _refit_at(config, problem, store, generation: int, recent: int):
 
     spread = np.nanstd(data.F[~data.failed], axis=0)
     out = []
-    for name, newest in ((f"the run's ({settings.recent} newest + best-ranked)", settings.recent),
-                         (f"{recent} newest + best-ranked", recent)):
+    rules = [(f"the run's ({settings.initial} first + {settings.recent} newest + best-ranked)", settings.recent,
+              settings.initial),
+             (f"{recent} newest + best-ranked", recent, 0)]
+    if initial:
+        rules.append((f"{initial} first + best-ranked", 0, initial))
+    for name, newest, first in rules:
         models = Models(problem.lower, problem.upper, problem.objective_labels, modelled,
-                        kernel=settings.kernel).fit(data, settings.training, recent=newest)
+                        kernel=settings.kernel).fit(data, settings.training, recent=newest, initial=first)
         p = models.predict(X)
         error = p.mean - F
         out.append((name, error.mean(axis=0) / spread, np.median(np.abs(error) / p.std, axis=0)))
@@ -78,6 +84,8 @@ def main() -> int:
     parser.add_argument("run", type=Path, help="a finished or stopped surrogate run directory")
     parser.add_argument("--generations", type=int, nargs="+", default=[10, 20, 30, 40])
     parser.add_argument("--recent", type=int, default=50, help="designs kept for being the newest (default 50)")
+    parser.add_argument("--initial", type=int, default=0,
+                        help="also refit with this many of the first designs stored kept (the initial population)")
     args = parser.parse_args()
     from threadpoolctl import threadpool_limits
 
@@ -85,7 +93,7 @@ def main() -> int:
     print("| generation | training set | mean signed error / spread, per objective | median \\|z\\|, per objective |")
     print("|---|---|---|---|")
     with threadpool_limits(limits=1):
-        for g, name, bias, z in refit(args.run, args.generations, args.recent):
+        for g, name, bias, z in refit(args.run, args.generations, args.recent, args.initial):
             print(f"| {g} | {name} | {', '.join(f'{v:+.3f}' for v in bias)} | "
                   f"{', '.join(f'{v:.2f}' for v in z)} |")
     return 0

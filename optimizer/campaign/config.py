@@ -206,6 +206,10 @@ class SurrogateSettings(Section):
     recent: int = Field(0, ge=0, le=5000, description="of the training designs, how many are the newest "
                         "evaluated, whatever their rank (the rest: those nearest the front), so that the models "
                         "learn from the batches they misjudged; 0: all by rank (decision 0017)")
+    initial: int = Field(0, ge=0, le=5000, description="of the training designs, how many are the first stored "
+                         "(the initial population, spread over the box), whatever their rank, so that the "
+                         "models keep seeing the whole box once the best-ranked designs crowd near the front; "
+                         "0: none kept (decision 0017)")
     coordinate_search: bool = Field(False, description="also move the best designs of the search on the models "
                                     "one variable at a time over its whole range, to the best predicted value "
                                     "(crosses the barriers between a variable's basins that NSGA-II's steps "
@@ -427,11 +431,17 @@ def check_campaign(config: CampaignConfig, source: Any) -> CampaignConfig:
     _check_evaluations(config, source)
     _check_execution(config, source)
     s = config.algorithm.surrogate
-    if s.recent > s.training:
-        path = ("algorithm", "surrogate", "recent")
-        raise ConfigError(f"{source.where(path)}: 'algorithm.surrogate.recent' = {s.recent} is more than "
-                          f"algorithm.surrogate.training ({s.training}): the newest designs are part of the "
-                          "training set; allowed: 0 to the training size")
+    for key in ("recent", "initial"):
+        if getattr(s, key) > s.training:
+            path = ("algorithm", "surrogate", key)
+            raise ConfigError(f"{source.where(path)}: 'algorithm.surrogate.{key}' = {getattr(s, key)} is more "
+                              f"than algorithm.surrogate.training ({s.training}): the designs it keeps are part "
+                              "of the training set; allowed: 0 to the training size")
+    if s.recent + s.initial > s.training:
+        path = ("algorithm", "surrogate", "initial")
+        raise ConfigError(f"{source.where(path)}: 'algorithm.surrogate.recent' + 'algorithm.surrogate.initial' "
+                          f"= {s.recent + s.initial} is more than algorithm.surrogate.training ({s.training}): "
+                          "both are part of the training set; allowed: a sum of 0 to the training size")
     return config
 
 

@@ -123,7 +123,8 @@ class SurrogateOffspring(PlainOffspring):
         # one BLAS thread: the matrices are small, and a thread count's summation order would otherwise
         # change the fitted models in their last bits between a run and its resumption on another machine
         with threadpool_limits(limits=1):
-            models.fit(data, a.surrogate.training, theta, recent=a.surrogate.recent)
+            models.fit(data, a.surrogate.training, theta, recent=a.surrogate.recent,
+                       initial=a.surrogate.initial)
             fit_seconds = time.perf_counter() - t0
             proposal = propose(self.problem, models, algorithm.pop.get("X"), batch=a.batch, pool=a.surrogate.pool,
                                exploration=a.surrogate.exploration, failure_limit=a.surrogate.failure_limit,

@@ -28,7 +28,8 @@ Conventions:
   back in the objective's own unit;
 * the training set is capped (:attr:`SurrogateSettings.training`): a GP's fit costs O(n³), and the designs
   near the front are the ones the infill ranks, so the capped set is the ``training`` designs of best
-  non-dominated rank (ties: the most recent). The classifier takes the ``training`` most recent designs.
+  non-dominated rank (ties: the most recent), less the ``initial`` first designs stored and the ``recent``
+  newest where the settings keep them. The classifier takes the ``training`` most recent designs.
 * Fits are warm-started from the hyperparameters of the previous generation (stored with it, as JSON
   numbers — nothing is pickled), with a bounded number of optimiser iterations; the same store therefore
   gives the same models, on resume too. The models are fitted side by side, one thread each (up to the
@@ -153,9 +154,10 @@ class Models:
 
     # ------------------------------------------------------------------------------------------- fit
     def fit(self, data: TrainingData, cap: int, theta: dict[str, list[float]] | None = None,
-            recent: int = 0) -> Models:
+            recent: int = 0, initial: int = 0) -> Models:
         """Fit every model on ``data`` (at most ``cap`` designs each), warm-started from ``theta``: the
-        ``recent`` newest designs with values, then the best-ranked of the rest (newest first among equals)."""
+        ``initial`` oldest designs with values, the ``recent`` newest, then the best-ranked of the rest
+        (newest first among equals)."""
         theta = theta or {}
         ok = ~data.failed
         if ok.sum() < 2:
@@ -163,10 +165,15 @@ class Models:
         chosen = np.flatnonzero(ok)
         # a design the models misjudged ranks low and would never be learnt from once the store outgrows
         # the cap: the newest are kept whatever their rank
-        newest = chosen[np.argsort(-data.order[chosen], kind="stable")][:min(recent, cap)]
-        rest = np.setdiff1d(chosen, newest)
-        rest = rest[np.lexsort((-data.order[rest], data.rank[rest]))][:cap - len(newest)]
-        chosen = np.concatenate([newest, rest])
+        by_age = chosen[np.argsort(data.order[chosen], kind="stable")]
+        # the first designs (the initial population) are spread over the box: without them the best-ranked
+        # crowd near the front, and the fitted length scales and warpings extrapolate the front's values into
+        # the corners nobody has looked at since
+        oldest = by_age[:min(initial, cap)]
+        newest = by_age[len(oldest):][::-1][:min(recent, cap - len(oldest))]
+        rest = np.setdiff1d(chosen, np.concatenate([oldest, newest]))
+        rest = rest[np.lexsort((-data.order[rest], data.rank[rest]))][:cap - len(oldest) - len(newest)]
+        chosen = np.concatenate([oldest, newest, rest])
         X = self.scale(data.X[chosen])
         self.training_size = len(chosen)
         targets = [(label, data.F[chosen, i]) for i, label in enumerate(self.objectives)]

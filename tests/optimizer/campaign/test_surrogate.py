@@ -97,6 +97,24 @@ def test_the_newest_designs_are_learnt_from_whatever_their_rank():
     assert np.abs(by_rank.predict(X[far]).mean - F[far]).max() > 0.1
 
 
+def test_the_first_designs_keep_the_box_in_view():
+    """Twenty designs spread over the box first (rank 9: far from the front), then forty crowded near the
+    front (rank 0): with a cap of forty the campaign's rule forgets the box and predicts its corners from
+    the front's values; keeping the first twenty, it knows them."""
+    rng = np.random.default_rng(3)
+    X = np.vstack([rng.random((20, 2)), 0.45 + 0.1 * rng.random((40, 2))])
+    F = ((X - 0.5) ** 2).sum(axis=1, keepdims=True)
+    rank = np.r_[np.full(20, 9.0), np.zeros(40)]
+    data = TrainingData(X, np.zeros(60, bool), F, np.zeros((60, 0)), rank, np.arange(60.0))
+    by_rank = Models(np.zeros(2), np.ones(2), ["f"], []).fit(data, cap=40)
+    with_first = Models(np.zeros(2), np.ones(2), ["f"], []).fit(data, cap=40, initial=20, recent=5)
+    assert by_rank.training_size == with_first.training_size == 40
+    corners = np.array([[0.0, 0.0], [0.0, 1.0], [1.0, 0.0], [1.0, 1.0]])
+    truth = ((corners - 0.5) ** 2).sum(axis=1)
+    assert np.abs(with_first.predict(corners).mean[:, 0] - truth).max() < 0.1
+    assert np.abs(by_rank.predict(corners).mean[:, 0] - truth).max() > 0.2
+
+
 @pytest.mark.slow
 def test_models_fitted_side_by_side_are_those_fitted_one_after_another(monkeypatch):
     import optimizer.campaign.surrogate as surrogate
@@ -340,11 +358,16 @@ def test_plain_generations_record_their_draws(tmp_path):
     ("algorithm.surrogate.recent=-1", r"algorithm.surrogate.recent"),
     ("algorithm.surrogate.recent=300", r"algorithm.surrogate.recent' = 300 is more than "
                                        r"algorithm.surrogate.training \(200\)"),
+    ("algorithm.surrogate.initial=-1", r"algorithm.surrogate.initial"),
+    ("algorithm.surrogate.initial=201", r"algorithm.surrogate.initial' = 201 is more than "),
+    ("algorithm.surrogate.initial=150 algorithm.surrogate.recent=60",
+     r"'algorithm.surrogate.recent' \+ 'algorithm.surrogate.initial' = 210 is more than "
+     r"algorithm.surrogate.training \(200\)"),
     ("algorithm.surrogate.kappa=2", r"unknown key 'algorithm.surrogate.kappa'; allowed: pool, exploration"),
 ])
 def test_bad_surrogate_settings_name_the_key(tmp_path, override, message):
     with pytest.raises(ConfigError, match=message):
-        campaign(tmp_path, ZDT1, override)
+        campaign(tmp_path, ZDT1, *override.split())
 
 
 def test_the_batch_defaults_to_a_fifth_of_the_population_with_the_surrogate(tmp_path):
