@@ -41,8 +41,11 @@ sys.path.insert(0, str(ROOT))
 PLAIN_BUDGET, SURROGATE_BUDGET = 5000, 1000
 
 
-#: ``algorithm.surrogate.training``'s default: a rule with another cap is named for it.
-DEFAULT_TRAINING, DEFAULT_EXPLORATION = 200, 0.25
+from optimizer.campaign.config import SurrogateSettings  # noqa: E402 (after the path above)
+
+#: ``algorithm.surrogate.training`` and ``exploration``'s defaults, from the schema: a rule with another
+#: value is named for it.
+DEFAULT_TRAINING, DEFAULT_EXPLORATION = SurrogateSettings().training, SurrogateSettings().exploration
 
 
 def rule_name(kernel: str = "product", coordinate_search: bool = False, recent: int = 0,
