@@ -208,23 +208,9 @@ def main() -> int:
     parser.add_argument("--report-only", action="store_true", help="summarise the stores already there")
     parser.add_argument("--json", type=Path, help="also write the figures here")
     # the blade benchmark names its runs the same way
-    from bench_surrogate_blade import DEFAULT_EXPLORATION, DEFAULT_TRAINING, rule_name
+    from bench_surrogate_blade import add_rule_arguments, rule_from
 
-    from optimizer.campaign.config import KERNELS
-
-    parser.add_argument("--kernel", choices=KERNELS, default="product",
-                        help="the surrogate's algorithm.surrogate.kernel (additive: runs named surrogate-additive-N, "
-                        "warped: surrogate-warped-N)")
-    parser.add_argument("--coordinate-search", action="store_true",
-                        help="algorithm.surrogate.coordinate_search (runs named surrogate[-KERNEL]-coordinate-N)")
-    parser.add_argument("--recent", type=int, default=0,
-                        help="algorithm.surrogate.recent (runs named surrogate[-KERNEL][-coordinate]-recentR-N)")
-    parser.add_argument("--initial", type=int, default=0,
-                        help="algorithm.surrogate.initial (runs named ...-initialI-N)")
-    parser.add_argument("--exploration", type=float, default=DEFAULT_EXPLORATION,
-                        help="algorithm.surrogate.exploration (runs named ...-explorationE-N when not the default)")
-    parser.add_argument("--training", type=int, default=200,
-                        help="algorithm.surrogate.training (runs named ...-trainingT-N when not 200)")
+    add_rule_arguments(parser)
     parser.add_argument("--stop-at-target", action="store_true",
                         help="stop each surrogate run once it reaches its case's target (the plain runs go first): "
                         "the evaluations to the target are measured, the hypervolume at 1 000 is not")
@@ -232,19 +218,8 @@ def main() -> int:
                         help="run and report only the pysamoo-budget runs (ZDT1, 10 variables, 200 evaluations)")
     args = parser.parse_args()
     seeds = list(range(1, args.seeds + 1))
-    settings = {"kernel": args.kernel} if args.kernel != "product" else {}
-    if args.coordinate_search:
-        settings["coordinate_search"] = True
-    if args.recent:
-        settings["recent"] = args.recent
-    if args.initial:
-        settings["initial"] = args.initial
-    if args.exploration != DEFAULT_EXPLORATION:
-        settings["exploration"] = args.exploration
-
-    if args.training != DEFAULT_TRAINING:
-        settings["training"] = args.training
-    name = rule_name(args.kernel, args.coordinate_search, args.recent, args.training, args.initial, args.exploration)
+    rule = rule_from(args)
+    name, settings = rule.name(), rule.settings()
     algorithm = {**METHODS["surrogate"], "surrogate": settings} if settings else METHODS["surrogate"]
     plain = [(args.out / c / f / f"plain-{s}", campaign(c, f, "plain", s)) for f in args.failures
              for c in args.cases for s in seeds if not args.igd_only]

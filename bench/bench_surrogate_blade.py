@@ -31,6 +31,7 @@ import os
 import platform
 import subprocess
 import sys
+from dataclasses import dataclass, fields
 from pathlib import Path
 
 import numpy as np
@@ -43,34 +44,65 @@ PLAIN_BUDGET, SURROGATE_BUDGET = 5000, 1000
 
 from optimizer.campaign.config import SurrogateSettings  # noqa: E402 (after the path above)
 
-#: ``algorithm.surrogate.training`` and ``exploration``'s defaults, from the schema: a rule with another
-#: value is named for it.
-DEFAULT_TRAINING, DEFAULT_EXPLORATION = SurrogateSettings().training, SurrogateSettings().exploration
+
+@dataclass(frozen=True)
+class Rule:
+    """A surrogate rule: the ``algorithm.surrogate`` settings a benchmark runs with, and the name its runs
+    take (``surrogate`` for the schema's defaults, ``surrogate-warped-coordinate-recent50-training250`` and
+    the like for another; ``bench/bench_surrogate.py`` names its runs with it too)."""
+
+    kernel: str = SurrogateSettings().kernel
+    coordinate_search: bool = False
+    recent: int = 0
+    recent_share: float = SurrogateSettings().recent_share
+    initial: int = 0
+    training: int = SurrogateSettings().training
+    exploration: float = SurrogateSettings().exploration
+
+    def name(self) -> str:
+        d = SurrogateSettings()
+        return "-".join(["surrogate", *([self.kernel] if self.kernel != d.kernel else []),
+                         *(["coordinate"] if self.coordinate_search else []),
+                         *([f"recent{self.recent}"] if self.recent else []),
+                         *([f"share{self.recent_share:g}"] if self.recent_share != d.recent_share else []),
+                         *([f"initial{self.initial}"] if self.initial else []),
+                         *([f"training{self.training}"] if self.training != d.training else []),
+                         *([f"exploration{self.exploration:g}"] if self.exploration != d.exploration else [])])
+
+    def settings(self) -> dict:
+        """The ``algorithm.surrogate`` keys whose values are not the schema's defaults."""
+        d = SurrogateSettings()
+        return {f.name: getattr(self, f.name) for f in fields(self) if getattr(self, f.name) != getattr(d, f.name)}
+
+    def overrides(self) -> list[str]:
+        """The same as ``--set`` arguments."""
+        return [f"algorithm.surrogate.{k}={str(v).lower() if isinstance(v, bool) else v}"
+                for k, v in self.settings().items()]
 
 
-def rule_name(kernel: str = "product", coordinate_search: bool = False, recent: int = 0,
-              training: int = DEFAULT_TRAINING, initial: int = 0, exploration: float = DEFAULT_EXPLORATION) -> str:
-    """The surrogate runs' name: ``surrogate`` for the default rule, ``surrogate-warped-coordinate``,
-    ``surrogate-warped-coordinate-recent50-training250``, ``surrogate-warped-coordinate-initial100`` and the
-    like for another
-    (``bench/bench_surrogate.py`` names its runs with it too)."""
-    return "-".join(["surrogate", *([kernel] if kernel != "product" else []),
-                     *(["coordinate"] if coordinate_search else []), *([f"recent{recent}"] if recent else []),
-                     *([f"initial{initial}"] if initial else []),
-                     *([f"training{training}"] if training != DEFAULT_TRAINING else []),
-                     *([f"exploration{exploration:g}"] if exploration != DEFAULT_EXPLORATION else [])])
+def add_rule_arguments(parser: argparse.ArgumentParser) -> None:
+    """The command-line options that choose a :class:`Rule`."""
+    from optimizer.campaign.config import KERNELS
+
+    d = Rule()
+    parser.add_argument("--kernel", choices=KERNELS, default=d.kernel,
+                        help="algorithm.surrogate.kernel (runs named surrogate-KERNEL-N when not the default)")
+    parser.add_argument("--coordinate-search", action="store_true",
+                        help="algorithm.surrogate.coordinate_search (runs named surrogate[-KERNEL]-coordinate-N)")
+    parser.add_argument("--recent", type=int, default=d.recent,
+                        help="algorithm.surrogate.recent (runs named surrogate[-KERNEL][-coordinate]-recentR-N)")
+    parser.add_argument("--recent-share", type=float, default=d.recent_share,
+                        help="algorithm.surrogate.recent_share (runs named ...-recentR-shareS-N when not the default)")
+    parser.add_argument("--initial", type=int, default=d.initial,
+                        help="algorithm.surrogate.initial (runs named ...-initialI-N)")
+    parser.add_argument("--training", type=int, default=d.training,
+                        help="algorithm.surrogate.training (runs named ...-trainingT-N when not the default)")
+    parser.add_argument("--exploration", type=float, default=d.exploration,
+                        help="algorithm.surrogate.exploration (runs named ...-explorationE-N when not the default)")
 
 
-def rule_settings(kernel: str = "product", coordinate_search: bool = False, recent: int = 0,
-                  training: int = DEFAULT_TRAINING, initial: int = 0,
-                  exploration: float = DEFAULT_EXPLORATION) -> list[str]:
-    """The command-line settings of a surrogate rule other than the default."""
-    return [*([f"algorithm.surrogate.kernel={kernel}"] if kernel != "product" else []),
-            *(["algorithm.surrogate.coordinate_search=true"] if coordinate_search else []),
-            *([f"algorithm.surrogate.recent={recent}"] if recent else []),
-            *([f"algorithm.surrogate.initial={initial}"] if initial else []),
-            *([f"algorithm.surrogate.training={training}"] if training != DEFAULT_TRAINING else []),
-            *([f"algorithm.surrogate.exploration={exploration:g}"] if exploration != DEFAULT_EXPLORATION else [])]
+def rule_from(args: argparse.Namespace) -> Rule:
+    return Rule(**{f.name: getattr(args, f.name) for f in fields(Rule)})
 
 
 def run_dirs(out: Path, case: str, methods, seeds, rule: str = "surrogate") -> list[tuple[str, int, Path]]:
@@ -172,29 +204,15 @@ def main() -> int:
     parser.add_argument("--workers", type=int, help="execution.workers of every run")
     parser.add_argument("--out", type=Path, default=ROOT / "runs" / "examples" / "surrogate-coarse")
     parser.add_argument("--report-only", action="store_true")
-    from optimizer.campaign.config import KERNELS
-
-    parser.add_argument("--kernel", choices=KERNELS, default="product",
-                        help="the surrogate's algorithm.surrogate.kernel (runs named surrogate-KERNEL-N)")
-    parser.add_argument("--coordinate-search", action="store_true",
-                        help="algorithm.surrogate.coordinate_search (runs named surrogate[-KERNEL]-coordinate-N)")
-    parser.add_argument("--recent", type=int, default=0,
-                        help="algorithm.surrogate.recent (runs named surrogate[-KERNEL][-coordinate]-recentR-N)")
-    parser.add_argument("--initial", type=int, default=0,
-                        help="algorithm.surrogate.initial (runs named ...-initialI-N)")
-    parser.add_argument("--exploration", type=float, default=DEFAULT_EXPLORATION,
-                        help="algorithm.surrogate.exploration (runs named ...-explorationE-N when not the default)")
-    parser.add_argument("--training", type=int, default=DEFAULT_TRAINING,
-                        help="algorithm.surrogate.training (runs named ...-trainingT-N when not 200)")
+    add_rule_arguments(parser)
     args = parser.parse_args()
-    rule = rule_name(args.kernel, args.coordinate_search, args.recent, args.training, args.initial, args.exploration)
+    rule = rule_from(args)
     if not args.report_only:
         # surrogate seed 1 of every case first, plain NSGA-II (5 000 evaluations each) last
         work = [(case, *item) for case in args.cases
-                for item in run_dirs(args.out, case, args.methods, range(1, args.seeds + 1), rule)]
+                for item in run_dirs(args.out, case, args.methods, range(1, args.seeds + 1), rule.name())]
         work.sort(key=lambda w: (w[1] == "nsga2", w[2]))
-        settings = rule_settings(args.kernel, args.coordinate_search, args.recent, args.training, args.initial,
-                                 args.exploration)
+        settings = rule.overrides()
         for case, method, seed, directory in work:
             run_one(case, method, seed, directory, args.workers, settings)
     report(args.out, args.cases)

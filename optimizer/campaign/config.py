@@ -206,6 +206,10 @@ class SurrogateSettings(Section):
     recent: int = Field(0, ge=0, le=5000, description="of the training designs, how many are the newest "
                         "evaluated, whatever their rank (the rest: those nearest the front), so that the models "
                         "learn from the batches they misjudged; 0: all by rank (decision 0017)")
+    recent_share: float = Field(1.0, ge=0, le=1, description="with recent > 0, the share of each batch chosen on "
+                                "models that learn from the newest designs; the rest is chosen on models fitted on "
+                                "the best-ranked alone (two sets of models each generation); 1: every design "
+                                "on the models with the newest (decision 0017)")
     initial: int = Field(0, ge=0, le=5000, description="of the training designs, how many are the first stored "
                          "(the initial population, spread over the box), whatever their rank, so that the "
                          "models keep seeing the whole box once the best-ranked designs crowd near the front; "
@@ -442,6 +446,11 @@ def check_campaign(config: CampaignConfig, source: Any) -> CampaignConfig:
         raise ConfigError(f"{source.where(path)}: 'algorithm.surrogate.recent' + 'algorithm.surrogate.initial' "
                           f"= {s.recent + s.initial} is more than algorithm.surrogate.training ({s.training}): "
                           "both are part of the training set; allowed: a sum of 0 to the training size")
+    if s.recent_share < 1.0 and s.recent == 0:
+        path = ("algorithm", "surrogate", "recent_share")
+        raise ConfigError(f"{source.where(path)}: 'algorithm.surrogate.recent_share' = {s.recent_share:g} splits the "
+                          "batch between models with and without the newest designs, but algorithm.surrogate.recent "
+                          "is 0; allowed: recent_share 1 (the default) or recent above 0")
     return config
 
 

@@ -18,7 +18,10 @@ Each step returns the offspring and a ``search`` record stored with the generati
   Eq. 21 and, in tool-path mode, Eq. 22, and the full check runs only where the choice reaches):
     checked, rejected  pool designs given the full geometric check, and of those the infeasible
     training   designs the regressions were fitted on; theta: {model: log-hyperparameters}
-    predicted  {key: {"mean": [...], "std": [...], "p_fail": p, "role": boundary|exploit|explore|fill}}
+               (theta_recent: the same for the models that learn from the newest designs, where
+               :func:`portfolio` splits the batch)
+    predicted  {key: {"mean": [...], "std": [...], "p_fail": p, "role": boundary|exploit|explore|fill,
+               and "models": ranked|recent where the batch is split}}
     error      after the batch is evaluated: {objective label: RMSE / standard deviation of the training
                values} over the batch's designs with values (out of sample: none was in the training set)
     failures   {"predicted": mean p_fail, "observed": share of the batch without values}
@@ -38,6 +41,28 @@ from optimizer.campaign.store import EvaluationRow, Store
 #: Designs with values the models need before they choose offspring; before that (a run whose initial
 #: designs nearly all failed) a generation takes NSGA-II's own offspring and its search record says why.
 MIN_TRAINING = 4
+
+#: The portfolio's members (see :func:`portfolio`) and the search-record key of each one's hyperparameters.
+MEMBERS = ("ranked", "recent")
+THETA_KEYS = ("theta", "theta_recent")
+
+
+def portfolio(batch: int, settings) -> list[tuple[int, int]]:
+    """How a generation's batch is chosen: ``[(recent, designs), ...]``, one entry per set of models.
+
+    With ``recent`` newest designs in the training set and a ``recent_share`` below 1, the batch is split:
+    models fitted on the best-ranked designs alone choose ``1 - recent_share`` of it, and models that also
+    learn from the newest choose the rest (at least one design each). The best-ranked models are optimistic
+    away from the front, which carries a search across the barriers between a variable's basins; the
+    models that learn from the newest are calibrated, which keeps a search from chasing a region they
+    misjudge (decision 0017)."""
+    recent, share = settings.recent, settings.recent_share
+    if recent == 0 or share >= 1.0 or batch < 2:
+        return [(recent, batch)]
+    if share <= 0.0:
+        return [(0, batch)]
+    with_recent = min(batch - 1, max(1, round(share * batch)))
+    return [(0, batch - with_recent), (recent, with_recent)]
 
 
 class FeasibleOffspring:
@@ -110,45 +135,57 @@ class SurrogateOffspring(PlainOffspring):
         from optimizer.campaign.surrogate import Models
 
         a = self.config.algorithm
-        t0 = time.perf_counter()
         data, front, evaluated = training_data(self.store, self.problem, g, self.modelled)
         with_values = int((~data.failed).sum())
         if with_values < MIN_TRAINING:
             return self._fallback(algorithm, g, f"the models need {MIN_TRAINING} designs with values, the store "
                                                f"has {with_values}")
         last = self.store.last_generation()
-        theta = (last.search or {}).get("theta") if last is not None else None
-        models = Models(self.problem.lower, self.problem.upper, self.problem.objective_labels, self.modelled,
-                        kernel=a.surrogate.kernel)
-        # one BLAS thread: the matrices are small, and a thread count's summation order would otherwise
-        # change the fitted models in their last bits between a run and its resumption on another machine
-        with threadpool_limits(limits=1):
-            models.fit(data, a.surrogate.training, theta, recent=a.surrogate.recent,
-                       initial=a.surrogate.initial)
-            fit_seconds = time.perf_counter() - t0
-            proposal = propose(self.problem, models, algorithm.pop.get("X"), batch=a.batch, pool=a.surrogate.pool,
-                               exploration=a.surrogate.exploration, failure_limit=a.surrogate.failure_limit,
-                               front=front, reference=self.store.campaign().reference,
-                               evaluated_X=evaluated, seed=_seed(a.seed, g), crossover=a.crossover,
-                               mutation=a.mutation, population_size=a.population,
-                               boundary_X=boundary_midpoints(data, self.store.campaign().reference,
-                                                             self.problem.lower, self.problem.upper),
-                               coordinate_search=a.surrogate.coordinate_search)
-        if len(proposal.X) == 0:
-            return self._fallback(algorithm, g, f"none of the {proposal.drawn} candidates drawn on the models "
-                                               "is geometrically feasible")
-        p = proposal.prediction
+        warm = (last.search or {}) if last is not None else {}
+        reference = self.store.campaign().reference
+        boundary_X = boundary_midpoints(data, reference, self.problem.lower, self.problem.upper)
+        fitted, proposals, fit_seconds = [], [], 0.0
+        taken = evaluated
+        for k, (recent, count) in enumerate(portfolio(a.batch, a.surrogate)):
+            t_fit = time.perf_counter()
+            models = Models(self.problem.lower, self.problem.upper, self.problem.objective_labels, self.modelled,
+                            kernel=a.surrogate.kernel)
+            # one BLAS thread: the matrices are small, and a thread count's summation order would otherwise
+            # change the fitted models in their last bits between a run and its resumption on another machine
+            with threadpool_limits(limits=1):
+                models.fit(data, a.surrogate.training, warm.get(THETA_KEYS[k]), recent=recent,
+                           initial=a.surrogate.initial)
+                fit_seconds += time.perf_counter() - t_fit
+                # each member searches as long as one choosing the whole batch would (the inner search's
+                # length is pool × batch draws), and never proposes what another member already took
+                proposal = propose(self.problem, models, algorithm.pop.get("X"), batch=count,
+                                   pool=-(-a.surrogate.pool * a.batch // count),
+                                   exploration=a.surrogate.exploration, failure_limit=a.surrogate.failure_limit,
+                                   front=front, reference=reference, evaluated_X=taken, seed=_seed(a.seed, g, k),
+                                   crossover=a.crossover, mutation=a.mutation, population_size=a.population,
+                                   boundary_X=boundary_X, coordinate_search=a.surrogate.coordinate_search)
+            fitted.append(models)
+            proposals.append(proposal)
+            taken = np.vstack([taken, proposal.X]) if len(proposal.X) else taken
+        X = np.vstack([p.X for p in proposals])
+        if len(X) == 0:
+            return self._fallback(algorithm, g, f"none of the {sum(p.drawn for p in proposals)} candidates drawn "
+                                               "on the models is geometrically feasible")
         predicted = {}
-        for i, x in enumerate(proposal.X):
-            predicted[self.problem.key(x)] = {"mean": [float(v) for v in p.mean[i]],
-                                              "std": [float(v) for v in p.std[i]],
-                                              "p_fail": float(p.p_fail[i]), "role": proposal.roles[i]}
-        search = {"method": self.method, "drawn": proposal.drawn, "screened": proposal.screened,
-                  "checked": proposal.checked, "rejected": proposal.rejected, "batch": len(proposal.X),
-                  "training": models.training_size, "theta": models.theta(),
-                  "predicted": predicted, "scale": _training_scale(data),
-                  "seconds": {"fit": fit_seconds, "screen": proposal.seconds["screen"]}}
-        return Population.new("X", proposal.X), search
+        for k, proposal in enumerate(proposals):
+            p = proposal.prediction
+            for i, x in enumerate(proposal.X):
+                predicted[self.problem.key(x)] = {"mean": [float(v) for v in p.mean[i]],
+                                                  "std": [float(v) for v in p.std[i]],
+                                                  "p_fail": float(p.p_fail[i]), "role": proposal.roles[i],
+                                                  **({"models": MEMBERS[k]} if len(proposals) > 1 else {})}
+        search = {"method": self.method, "drawn": sum(p.drawn for p in proposals),
+                  "screened": sum(p.screened for p in proposals), "checked": sum(p.checked for p in proposals),
+                  "rejected": sum(p.rejected for p in proposals), "batch": len(X),
+                  "training": fitted[0].training_size, "predicted": predicted, "scale": _training_scale(data),
+                  "seconds": {"fit": fit_seconds, "screen": sum(p.seconds["screen"] for p in proposals)}}
+        search.update({THETA_KEYS[k]: models.theta() for k, models in enumerate(fitted)})
+        return Population.new("X", X), search
 
     def _fallback(self, algorithm, g: int, why: str):
         """NSGA-II's own offspring for this generation (the batch size is the same), saying why."""
@@ -224,7 +261,8 @@ def _training_scale(data) -> list[float]:
     return [float(v) for v in F.std(axis=0)] if len(F) > 1 else []
 
 
-def _seed(seed: int, generation: int) -> int:
-    """The inner search's seed: a function of the campaign's seed and the generation only, so that a
-    resumed run searches exactly as an uninterrupted one."""
-    return int(np.random.default_rng([seed, generation]).integers(2**31 - 1))
+def _seed(seed: int, generation: int, member: int = 0) -> int:
+    """The inner search's seed: a function of the campaign's seed, the generation and the portfolio member
+    only, so that a resumed run searches exactly as an uninterrupted one."""
+    key = [seed, generation] if member == 0 else [seed, generation, member]
+    return int(np.random.default_rng(key).integers(2**31 - 1))

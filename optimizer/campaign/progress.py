@@ -158,7 +158,7 @@ def status_of(directory: str | Path) -> dict:
         "cache_hits": sum(g.cache_hits for g in generations),
         "method": config.algorithm.method,
         "search": [{"generation": g.generation + 1, **{k: v for k, v in (g.search or {}).items()
-                                                     if k not in ("predicted", "theta", "scale")}}
+                                                     if k not in ("predicted", "theta", "theta_recent", "scale")}}
                    for g in generations],
         "mean_evaluation_seconds": sum(seconds) / len(seconds) if seconds else None,
         "remaining": None if row.state == "finished" else remaining(config.algorithm.evaluations, rows, generations),

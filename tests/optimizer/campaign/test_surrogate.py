@@ -8,10 +8,10 @@ import sqlite3
 import numpy as np
 import pytest
 
-from optimizer.campaign.config import ConfigError, load_campaign
+from optimizer.campaign.config import ConfigError, SurrogateSettings, load_campaign
 from optimizer.campaign.driver import run_campaign
 from optimizer.campaign.infill import boundary_midpoints, choose, hypervolume_improvement, search_coordinates
-from optimizer.campaign.offspring import FeasibleOffspring
+from optimizer.campaign.offspring import FeasibleOffspring, portfolio
 from optimizer.campaign.progress import format_status, search_text, status_of
 from optimizer.campaign.store import STORE_NAME, Store, non_dominated
 from optimizer.campaign.surrogate import Models, Prediction, TrainingData
@@ -341,6 +341,30 @@ def test_the_coordinate_search_adds_its_designs_to_the_pool(tmp_path):
     assert [t - f for t, f in zip(drawn["true"], drawn["false"], strict=True)] == [4, 4]
 
 
+@pytest.mark.parametrize("batch, recent, share, expected", [
+    (20, 0, 1.0, [(0, 20)]), (20, 20, 1.0, [(20, 20)]), (20, 20, 0.5, [(0, 10), (20, 10)]),
+    (20, 20, 0.0, [(0, 20)]), (4, 5, 0.1, [(0, 3), (5, 1)]), (4, 5, 0.9, [(0, 1), (5, 3)]), (1, 5, 0.5, [(5, 1)]),
+])
+def test_the_portfolio_splits_the_batch_between_the_best_ranked_and_the_newest(batch, recent, share, expected):
+    assert portfolio(batch, SurrogateSettings(recent=recent, recent_share=share)) == expected
+
+
+def test_a_split_batch_is_chosen_by_both_sets_of_models_without_repeats(tmp_path):
+    """``recent_share: 0.5``: half of each batch comes from the models fitted on the best-ranked designs, half
+    from those that also learn from the newest; both sets' hyperparameters are stored for the next warm start."""
+    config = campaign(tmp_path, ZDT1, "algorithm.method=surrogate", "algorithm.generations=3",
+                      "algorithm.surrogate={pool: 5, training: 40, recent: 8, recent_share: 0.5}")
+    run_campaign(config, tmp_path / "run")
+    with Store(tmp_path / "run" / STORE_NAME, readonly=True) as s:
+        searches = [g.search for g in s.generations()[1:]]
+        keys = [r.key for r in s.evaluations()]
+    assert len(keys) == len(set(keys)) == 20 + 2 * 4
+    for search in searches:
+        members = sorted(p["models"] for p in search["predicted"].values())
+        assert search["batch"] == 4 and members == ["ranked", "ranked", "recent", "recent"]
+        assert set(search["theta"]) == set(search["theta_recent"]) >= {"f1", "f2"}
+
+
 def test_plain_generations_record_their_draws(tmp_path):
     run_campaign(campaign(tmp_path, ZDT1, "algorithm.generations=2"), tmp_path / "run")
     with Store(tmp_path / "run" / STORE_NAME, readonly=True) as s:
@@ -363,6 +387,9 @@ def test_plain_generations_record_their_draws(tmp_path):
     ("algorithm.surrogate.initial=150 algorithm.surrogate.recent=60",
      r"'algorithm.surrogate.recent' \+ 'algorithm.surrogate.initial' = 210 is more than "
      r"algorithm.surrogate.training \(200\)"),
+    ("algorithm.surrogate.recent_share=1.5", r"algorithm.surrogate.recent_share"),
+    ("algorithm.surrogate.recent_share=0.5", r"'algorithm.surrogate.recent_share' = 0.5 splits the batch .* "
+                                             r"algorithm.surrogate.recent is 0"),
     ("algorithm.surrogate.kappa=2", r"unknown key 'algorithm.surrogate.kappa'; allowed: pool, exploration"),
 ])
 def test_bad_surrogate_settings_name_the_key(tmp_path, override, message):
