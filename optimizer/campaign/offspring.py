@@ -135,6 +135,7 @@ class SurrogateOffspring(PlainOffspring):
         from optimizer.campaign.surrogate import Models
 
         a = self.config.algorithm
+        t0 = time.perf_counter()
         data, front, evaluated = training_data(self.store, self.problem, g, self.modelled)
         with_values = int((~data.failed).sum())
         if with_values < MIN_TRAINING:
@@ -144,7 +145,8 @@ class SurrogateOffspring(PlainOffspring):
         warm = (last.search or {}) if last is not None else {}
         reference = self.store.campaign().reference
         boundary_X = boundary_midpoints(data, reference, self.problem.lower, self.problem.upper)
-        fitted, proposals, fit_seconds = [], [], 0.0
+        # reading the store counts with the fit: both are the price of choosing on models
+        fitted, proposals, fit_seconds = [], [], time.perf_counter() - t0
         taken = evaluated
         for k, (recent, count) in enumerate(portfolio(a.batch, a.surrogate)):
             t_fit = time.perf_counter()
