@@ -44,6 +44,9 @@ PLAIN_BUDGET, SURROGATE_BUDGET = 5000, 1000
 
 from optimizer.campaign.config import SurrogateSettings  # noqa: E402 (after the path above)
 
+#: The schema's defaults: a rule is named for the settings that differ from them.
+SCHEMA = SurrogateSettings()
+
 
 @dataclass(frozen=True)
 class Rule:
@@ -51,16 +54,16 @@ class Rule:
     take (``surrogate`` for the schema's defaults, ``surrogate-warped-coordinate-recent50-training250`` and
     the like for another; ``bench/bench_surrogate.py`` names its runs with it too)."""
 
-    kernel: str = SurrogateSettings().kernel
-    coordinate_search: bool = False
-    recent: int = 0
-    recent_share: float = SurrogateSettings().recent_share
-    initial: int = 0
-    training: int = SurrogateSettings().training
-    exploration: float = SurrogateSettings().exploration
+    kernel: str = SCHEMA.kernel
+    coordinate_search: bool = SCHEMA.coordinate_search
+    recent: int = SCHEMA.recent
+    recent_share: float = SCHEMA.recent_share
+    initial: int = SCHEMA.initial
+    training: int = SCHEMA.training
+    exploration: float = SCHEMA.exploration
 
     def name(self) -> str:
-        d = SurrogateSettings()
+        d = SCHEMA
         return "-".join(["surrogate", *([self.kernel] if self.kernel != d.kernel else []),
                          *(["coordinate"] if self.coordinate_search else []),
                          *([f"recent{self.recent}"] if self.recent else []),
@@ -71,8 +74,7 @@ class Rule:
 
     def settings(self) -> dict:
         """The ``algorithm.surrogate`` keys whose values are not the schema's defaults."""
-        d = SurrogateSettings()
-        return {f.name: getattr(self, f.name) for f in fields(self) if getattr(self, f.name) != getattr(d, f.name)}
+        return {f.name: getattr(self, f.name) for f in fields(self) if getattr(self, f.name) != getattr(SCHEMA, f.name)}
 
     def overrides(self) -> list[str]:
         """The same as ``--set`` arguments."""

@@ -21,6 +21,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import TextIO
 
+from optimizer.campaign.offspring import THETA_KEYS
 from optimizer.campaign.store import STORE_NAME, EvaluationRow, Store, StoreInspection, check_values
 
 
@@ -158,7 +159,7 @@ def status_of(directory: str | Path) -> dict:
         "cache_hits": sum(g.cache_hits for g in generations),
         "method": config.algorithm.method,
         "search": [{"generation": g.generation + 1, **{k: v for k, v in (g.search or {}).items()
-                                                     if k not in ("predicted", "theta", "theta_recent", "scale")}}
+                                                     if k not in ("predicted", "scale", *THETA_KEYS)}}
                    for g in generations],
         "mean_evaluation_seconds": sum(seconds) / len(seconds) if seconds else None,
         "remaining": None if row.state == "finished" else remaining(config.algorithm.evaluations, rows, generations),
