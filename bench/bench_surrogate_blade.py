@@ -61,6 +61,7 @@ class Rule:
     initial: int = SCHEMA.initial
     training: int = SCHEMA.training
     exploration: float = SCHEMA.exploration
+    warp_prior_variance: float = SCHEMA.warp_prior_variance
 
     def name(self) -> str:
         d = SCHEMA
@@ -70,7 +71,9 @@ class Rule:
                          *([f"share{self.recent_share:g}"] if self.recent_share != d.recent_share else []),
                          *([f"initial{self.initial}"] if self.initial else []),
                          *([f"training{self.training}"] if self.training != d.training else []),
-                         *([f"exploration{self.exploration:g}"] if self.exploration != d.exploration else [])])
+                         *([f"exploration{self.exploration:g}"] if self.exploration != d.exploration else []),
+                         *([f"prior{self.warp_prior_variance:g}"]
+                           if self.warp_prior_variance != d.warp_prior_variance else [])])
 
     def settings(self) -> dict:
         """The ``algorithm.surrogate`` keys whose values are not the schema's defaults."""
@@ -101,6 +104,9 @@ def add_rule_arguments(parser: argparse.ArgumentParser) -> None:
                         help="algorithm.surrogate.training (runs named ...-trainingT-N when not the default)")
     parser.add_argument("--exploration", type=float, default=d.exploration,
                         help="algorithm.surrogate.exploration (runs named ...-explorationE-N when not the default)")
+    parser.add_argument("--warp-prior-variance", type=float, default=d.warp_prior_variance,
+                        help="algorithm.surrogate.warp_prior_variance, with --kernel warped (runs named ...-priorV-N "
+                             "when not the default)")
 
 
 def rule_from(args: argparse.Namespace) -> Rule:

@@ -218,6 +218,10 @@ class SurrogateSettings(Section):
                                     "one variable at a time over its whole range, to the best predicted value "
                                     "(crosses the barriers between a variable's basins that NSGA-II's steps "
                                     "rarely cross; pays with the additive kernel, decision 0017)")
+    warp_prior_variance: float = Field(2.0, gt=0, le=100, description="with kernel: warped, the variance of the "
+                                       "normal prior on the logarithms of the warping exponents (a log-normal "
+                                       "prior of median 1, no warping): smaller keeps the maps nearer the "
+                                       "identity, larger lets the fit take steep ones (decision 0017)")
 
 
 class AlgorithmConfig(Section):
@@ -451,6 +455,12 @@ def check_campaign(config: CampaignConfig, source: Any) -> CampaignConfig:
         raise ConfigError(f"{source.where(path)}: 'algorithm.surrogate.recent_share' = {s.recent_share:g} splits the "
                           "batch between models with and without the newest designs, but algorithm.surrogate.recent "
                           "is 0; allowed: recent_share 1 (the default) or recent above 0")
+    if s.warp_prior_variance != SurrogateSettings.model_fields["warp_prior_variance"].default and s.kernel != "warped":
+        path = ("algorithm", "surrogate", "warp_prior_variance")
+        raise ConfigError(f"{source.where(path)}: 'algorithm.surrogate.warp_prior_variance' = "
+                          f"{s.warp_prior_variance:g} sets the prior of the warped kernel's exponents, but "
+                          f"algorithm.surrogate.kernel is {s.kernel!r}; allowed: kernel 'warped', or the default "
+                          "variance")
     return config
 
 

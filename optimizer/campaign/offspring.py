@@ -151,7 +151,7 @@ class SurrogateOffspring(PlainOffspring):
         for k, (recent, count) in enumerate(portfolio(a.batch, a.surrogate)):
             t_fit = time.perf_counter()
             models = Models(self.problem.lower, self.problem.upper, self.problem.objective_labels, self.modelled,
-                            kernel=a.surrogate.kernel)
+                            kernel=a.surrogate.kernel, warp_prior_variance=a.surrogate.warp_prior_variance)
             # one BLAS thread: the matrices are small, and a thread count's summation order would otherwise
             # change the fitted models in their last bits between a run and its resumption on another machine
             with threadpool_limits(limits=1):

@@ -12,8 +12,8 @@ every fit:
   every variable at once, and which it therefore misses in many variables with a few hundred designs;
 * with ``kernel: warped`` instead, the same additive terms on each variable after a fitted monotone warping
   of its range (:class:`~optimizer.campaign.additive.WarpedAdditiveMatern`; its exponents under a
-  log-normal prior of median 1, :data:`WARP_PRIOR_VARIANCE`): one-variable effects that are flat over most
-  of a variable's range and steep in a corner of it;
+  log-normal prior of median 1, ``algorithm.surrogate.warp_prior_variance``): one-variable effects that
+  are flat over most of a variable's range and steep in a corner of it;
 * white noise, for the solver's scatter;
 
 and a Gaussian-process classifier of **failure** — a design that does not give usable values
@@ -46,15 +46,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from optimizer.campaign.config import KERNELS
+from optimizer.campaign.config import KERNELS, SurrogateSettings
 
 #: Iterations of the hyperparameter optimiser per fit (warm-started: a few suffice once the run settles).
 FIT_ITERATIONS = 60
-#: Variance of the normal prior on the logarithms of the warping exponents a, b (``kernel: warped``): a
-#: log-normal prior of median 1 (no warping). Without it the two exponents per variable, fitted to 200
-#: designs, wander to their bounds; with BoTorch's and Ax's variance, 0.75, an exponent near 13 (MW1's
-#: wells) is three standard deviations out and too dear for the fit to take in time (decision 0017).
-WARP_PRIOR_VARIANCE = 2.0
+#: The schema's prior variance of the warping exponents (``algorithm.surrogate.warp_prior_variance``).
+DEFAULT_WARP_PRIOR_VARIANCE = SurrogateSettings.model_fields["warp_prior_variance"].default
 
 
 @dataclass(frozen=True)
@@ -89,16 +86,16 @@ def _cores() -> int:
     return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
 
 
-def _optimizer(iterations: int, prior: np.ndarray | None = None):
+def _optimizer(iterations: int, prior: np.ndarray | None = None, variance: float = 1.0):
     """scikit-learn's ``optimizer`` callable: L-BFGS-B with a bounded number of iterations, maximising the
     marginal likelihood, or with ``prior`` (a mask of the log-hyperparameters that have one) the posterior
-    under a normal prior of variance :data:`WARP_PRIOR_VARIANCE` about 0 on those."""
+    under a normal prior of ``variance`` about 0 on those."""
     from scipy.optimize import minimize
 
     def run(objective, theta0, bounds):
         def posterior(theta):
             value, gradient = objective(theta)             # − log marginal likelihood and its gradient
-            penalty = np.where(prior, theta, 0.0) / WARP_PRIOR_VARIANCE
+            penalty = np.where(prior, theta, 0.0) / variance
             return value + 0.5 * float(np.dot(penalty, theta)), gradient + penalty
 
         result = minimize(objective if prior is None else posterior, theta0, method="L-BFGS-B", jac=True,
@@ -108,7 +105,8 @@ def _optimizer(iterations: int, prior: np.ndarray | None = None):
     return run
 
 
-def _regressor(d: int, theta: Sequence[float] | None, kernel_name: str):
+def _regressor(d: int, theta: Sequence[float] | None, kernel_name: str,
+               warp_prior_variance: float = DEFAULT_WARP_PRIOR_VARIANCE):
     from sklearn.gaussian_process import GaussianProcessRegressor
     from sklearn.gaussian_process.kernels import ConstantKernel, Matern, WhiteKernel
 
@@ -122,10 +120,12 @@ def _regressor(d: int, theta: Sequence[float] | None, kernel_name: str):
     kernel = InPlaceSum(kernel, WhiteKernel(1e-4, (1e-8, 1e-1)))
     if theta is not None and len(theta) == len(kernel.theta):
         kernel = kernel.clone_with_theta(np.clip(np.asarray(theta, float), *kernel.bounds.T))
-    # the warping exponents' prior: one per log-hyperparameter, in the kernel's order
+    # the warping exponents' prior: one per log-hyperparameter, in the kernel's order. Without it the two
+    # exponents per variable, fitted to 200 designs, wander to their bounds (decision 0017)
     warping = np.concatenate([np.full(h.n_elements, "warping_" in h.name) for h in kernel.hyperparameters])
+    prior = warping if warping.any() else None
     return GaussianProcessRegressor(kernel, normalize_y=True,
-                                    optimizer=_optimizer(FIT_ITERATIONS, warping if warping.any() else None))
+                                    optimizer=_optimizer(FIT_ITERATIONS, prior, warp_prior_variance))
 
 
 class Models:
@@ -133,15 +133,18 @@ class Models:
 
     lower, upper: the design box; labels: names of the modelled objectives and constraints (for the
     stored hyperparameters); kernel: ``product``, ``additive`` or ``warped`` (``algorithm.surrogate.kernel``, the
-    module docstring); theta: ``{label: log-hyperparameters}`` to warm-start from.
+    module docstring); warp_prior_variance: with ``warped``, the variance of the normal prior on the log
+    warping exponents (``algorithm.surrogate.warp_prior_variance``).
     """
 
     def __init__(self, lower: np.ndarray, upper: np.ndarray, objectives: Sequence[str], constraints: Sequence[str],
-                 kernel: str = "product"):
+                 kernel: str = "product", warp_prior_variance: float = DEFAULT_WARP_PRIOR_VARIANCE):
         if kernel not in KERNELS:
             raise ValueError(f"kernel must be one of {KERNELS}, not {kernel!r}")
         self.lower, self.upper = np.asarray(lower, float), np.asarray(upper, float)
-        self.kernel = kernel
+        if not warp_prior_variance > 0:
+            raise ValueError(f"warp_prior_variance must be above 0, not {warp_prior_variance!r}")
+        self.kernel, self.warp_prior_variance = kernel, float(warp_prior_variance)
         self.objectives, self.constraints = tuple(objectives), tuple(constraints)
         self._regressors: dict[str, object] = {}
         self._classifier = None
@@ -180,7 +183,7 @@ class Models:
         targets += [(label, data.G[chosen, i]) for i, label in enumerate(self.constraints)]
 
         def regression(label: str, y: np.ndarray):
-            return _regressor(X.shape[1], theta.get(label), self.kernel).fit(X, y)
+            return _regressor(X.shape[1], theta.get(label), self.kernel, self.warp_prior_variance).fit(X, y)
 
         # the models are independent, and each fit is deterministic on its own thread (one BLAS thread, its
         # own optimiser state), so they are fitted side by side on the cores the idle workers leave

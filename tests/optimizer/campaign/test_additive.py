@@ -103,7 +103,7 @@ def test_the_warping_exponents_have_a_log_normal_prior_of_median_one():
     """The fit maximises the marginal likelihood plus, on the warping exponents only, a normal log-prior of
     variance v about log 1 = 0: on a quadratic stand-in for the likelihood, the mode moves from the
     likelihood's optimum c to c / (1 + 1 / v) for those, and stays at c for the others."""
-    from optimizer.campaign.surrogate import WARP_PRIOR_VARIANCE, _optimizer, _regressor
+    from optimizer.campaign.surrogate import _optimizer, _regressor
 
     c = np.array([1.0, -2.0, 0.5, 3.0])
     prior = np.array([False, True, False, True])
@@ -111,9 +111,11 @@ def test_the_warping_exponents_have_a_log_normal_prior_of_median_one():
     def objective(theta):                        # − log likelihood, its optimum at c
         return 0.5 * float(np.sum((theta - c) ** 2)), theta - c
 
-    mode, _ = _optimizer(200, prior)(objective, np.zeros(4), np.tile([-10.0, 10.0], (4, 1)))
-    # L-BFGS-B stops at a projected gradient of 1e-5; the curvature here is at least 1, so the mode is that near.
-    assert mode == pytest.approx(np.where(prior, c / (1 + 1 / WARP_PRIOR_VARIANCE), c), abs=1e-5)
+    for variance in (0.75, 2.0):
+        mode, _ = _optimizer(200, prior, variance)(objective, np.zeros(4), np.tile([-10.0, 10.0], (4, 1)))
+        # L-BFGS-B stops at a projected gradient of 1e-5; the curvature here is at least 1, so the mode is
+        # that near.
+        assert mode == pytest.approx(np.where(prior, c / (1 + 1 / variance), c), abs=1e-5)
     counts = {k: sum(h.n_elements for h in _regressor(3, None, k).kernel.hyperparameters if "warping_" in h.name)
               for k in ("product", "additive", "warped")}
     assert counts == {"product": 0, "additive": 0, "warped": 6}
@@ -151,3 +153,28 @@ def test_a_warped_model_learns_wells_in_the_corner_of_each_range():
     assert abs(minimum["warped"]) < 0.3 and minimum["additive"] > 1.0
     assert error["warped"] < 0.05 and error["additive"] > 0.2
     assert np.all(np.asarray(models._regressors["w"].kernel_.k1.k2.warping_a) > 1.0)
+
+
+def test_a_smaller_warping_prior_variance_keeps_the_warping_nearer_the_identity():
+    """``algorithm.surrogate.warp_prior_variance``: two wells of x¹³ near the top of their ranges, 80
+    designs. Under the default prior (variance 2) the fit stretches the top of each range (log a above 2:
+    a near the function's 13); under a tight one (0.01) the exponents stay within a factor e of 1."""
+    d = 2
+    centre = np.array([0.6, 0.9])
+
+    def wells(X):
+        return (1.0 - np.exp(-10.0 * (X**13 - centre) ** 2)).sum(axis=1)
+
+    rng = np.random.default_rng(5)
+    X = rng.random((80, d))
+    top = rng.random((80, d)) < 1 / 3
+    X[top] = 0.9 + 0.1 * rng.random(top.sum())
+    data = TrainingData(X, np.zeros(len(X), bool), wells(X)[:, None], np.zeros((len(X), 0)), np.zeros(len(X)),
+                        np.arange(len(X), dtype=float))
+    log_a = {}
+    for variance in (0.01, 2.0):
+        models = Models(np.zeros(d), np.ones(d), ["w"], [], kernel="warped", warp_prior_variance=variance)
+        warping = models.fit(data, cap=len(X))._regressors["w"].kernel_.k1.k2
+        log_a[variance] = np.log(warping.warping_a)
+    assert np.all(np.abs(log_a[0.01]) < 1.0)
+    assert np.all(log_a[2.0] > 2.0)

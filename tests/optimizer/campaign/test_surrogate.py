@@ -390,6 +390,9 @@ def test_plain_generations_record_their_draws(tmp_path):
     ("algorithm.surrogate.recent_share=1.5", r"algorithm.surrogate.recent_share"),
     ("algorithm.surrogate.recent_share=0.5", r"'algorithm.surrogate.recent_share' = 0.5 splits the batch .* "
                                              r"algorithm.surrogate.recent is 0"),
+    ("algorithm.surrogate.warp_prior_variance=0", r"algorithm.surrogate.warp_prior_variance"),
+    ("algorithm.surrogate.warp_prior_variance=1.25", r"'algorithm.surrogate.warp_prior_variance' = 1.25 sets the "
+                                                     r"prior .* algorithm.surrogate.kernel is 'product'"),
     ("algorithm.surrogate.kappa=2", r"unknown key 'algorithm.surrogate.kappa'; allowed: pool, exploration"),
 ])
 def test_bad_surrogate_settings_name_the_key(tmp_path, override, message):
