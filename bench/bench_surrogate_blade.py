@@ -62,6 +62,7 @@ class Rule:
     training: int = SCHEMA.training
     exploration: float = SCHEMA.exploration
     warp_prior_variance: float = SCHEMA.warp_prior_variance
+    hyperparameter_initial: int = SCHEMA.hyperparameter_initial
 
     def name(self) -> str:
         d = SCHEMA
@@ -73,7 +74,8 @@ class Rule:
                          *([f"training{self.training}"] if self.training != d.training else []),
                          *([f"exploration{self.exploration:g}"] if self.exploration != d.exploration else []),
                          *([f"prior{self.warp_prior_variance:g}"]
-                           if self.warp_prior_variance != d.warp_prior_variance else [])])
+                           if self.warp_prior_variance != d.warp_prior_variance else []),
+                         *([f"hyper{self.hyperparameter_initial}"] if self.hyperparameter_initial else [])])
 
     def settings(self) -> dict:
         """The ``algorithm.surrogate`` keys whose values are not the schema's defaults."""
@@ -107,6 +109,8 @@ def add_rule_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--warp-prior-variance", type=float, default=d.warp_prior_variance,
                         help="algorithm.surrogate.warp_prior_variance, with --kernel warped (runs named ...-priorV-N "
                              "when not the default)")
+    parser.add_argument("--hyperparameter-initial", type=int, default=d.hyperparameter_initial,
+                        help="algorithm.surrogate.hyperparameter_initial (runs named ...-hyperH-N)")
 
 
 def rule_from(args: argparse.Namespace) -> Rule:

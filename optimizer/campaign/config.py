@@ -214,6 +214,12 @@ class SurrogateSettings(Section):
                          "(the initial population, spread over the box), whatever their rank, so that the "
                          "models keep seeing the whole box once the best-ranked designs crowd near the front; "
                          "0: none kept (decision 0017)")
+    hyperparameter_initial: int = Field(0, ge=0, le=5000, description="fit the models' hyperparameters (length "
+                                        "scales, variances, warpings) on a training set of the same size that "
+                                        "keeps this many of the first stored designs (the initial population, "
+                                        "spread over the box), the rest by rank; the models then predict from "
+                                        "the usual training set with them; 0: both from the usual set "
+                                        "(decision 0017)")
     coordinate_search: bool = Field(False, description="also move the best designs of the search on the models "
                                     "one variable at a time over its whole range, to the best predicted value "
                                     "(crosses the barriers between a variable's basins that NSGA-II's steps "
@@ -439,7 +445,7 @@ def check_campaign(config: CampaignConfig, source: Any) -> CampaignConfig:
     _check_evaluations(config, source)
     _check_execution(config, source)
     s = config.algorithm.surrogate
-    for key in ("recent", "initial"):
+    for key in ("recent", "initial", "hyperparameter_initial"):
         if getattr(s, key) > s.training:
             path = ("algorithm", "surrogate", key)
             raise ConfigError(f"{source.where(path)}: 'algorithm.surrogate.{key}' = {getattr(s, key)} is more "

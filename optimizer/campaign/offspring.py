@@ -156,7 +156,7 @@ class SurrogateOffspring(PlainOffspring):
             # change the fitted models in their last bits between a run and its resumption on another machine
             with threadpool_limits(limits=1):
                 models.fit(data, a.surrogate.training, warm.get(THETA_KEYS[k]), recent=recent,
-                           initial=a.surrogate.initial)
+                           initial=a.surrogate.initial, hyperparameter_initial=a.surrogate.hyperparameter_initial)
                 fit_seconds += time.perf_counter() - t_fit
                 # each member searches as long as one choosing the whole batch would (the inner search's
                 # length is pool × batch draws), and never proposes what another member already took

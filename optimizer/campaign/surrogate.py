@@ -128,6 +128,41 @@ def _regressor(d: int, theta: Sequence[float] | None, kernel_name: str,
                                     optimizer=_optimizer(FIT_ITERATIONS, prior, warp_prior_variance))
 
 
+def _training_set(data: TrainingData, cap: int, recent: int, initial: int) -> np.ndarray:
+    """Indices of at most ``cap`` designs with values: the ``initial`` oldest, the ``recent`` newest, then
+    the best-ranked of the rest (newest first among equals)."""
+    chosen = np.flatnonzero(~data.failed)
+    # a design the models misjudged ranks low and would never be learnt from once the store outgrows
+    # the cap: the newest are kept whatever their rank
+    by_age = chosen[np.argsort(data.order[chosen], kind="stable")]
+    # the first designs (the initial population) are spread over the box: without them the best-ranked
+    # crowd near the front, and the fitted length scales and warpings extrapolate the front's values into
+    # the corners nobody has looked at since
+    oldest = by_age[:min(initial, cap)]
+    newest = by_age[len(oldest):][::-1][:min(recent, cap - len(oldest))]
+    rest = np.setdiff1d(chosen, np.concatenate([oldest, newest]))
+    rest = rest[np.lexsort((-data.order[rest], data.rank[rest]))][:cap - len(oldest) - len(newest)]
+    return np.concatenate([oldest, newest, rest])
+
+
+class _Conditioned:
+    """A Gaussian process with hyperparameters fitted elsewhere, conditioned on ``X``, ``y``. Values are
+    standardised by the mean and standard deviation of ``y_fitted``, the values the hyperparameters were
+    fitted to, so that the fitted variances keep their meaning in the objective's unit."""
+
+    def __init__(self, kernel, y_fitted: np.ndarray, X: np.ndarray, y: np.ndarray):
+        from sklearn.gaussian_process import GaussianProcessRegressor
+
+        self.kernel_ = kernel
+        self._mean, self._scale = float(np.mean(y_fitted)), float(np.std(y_fitted)) or 1.0
+        self._gp = GaussianProcessRegressor(kernel, optimizer=None).fit(X, (y - self._mean) / self._scale)
+
+    def predict(self, X: np.ndarray, return_std: bool = False):
+        mean, std = self._gp.predict(X, return_std=True)
+        mean = mean * self._scale + self._mean
+        return (mean, std * self._scale) if return_std else mean
+
+
 class Models:
     """The fitted models of one generation (see the module docstring).
 
@@ -157,33 +192,30 @@ class Models:
 
     # ------------------------------------------------------------------------------------------- fit
     def fit(self, data: TrainingData, cap: int, theta: dict[str, list[float]] | None = None,
-            recent: int = 0, initial: int = 0) -> Models:
+            recent: int = 0, initial: int = 0, hyperparameter_initial: int = 0) -> Models:
         """Fit every model on ``data`` (at most ``cap`` designs each), warm-started from ``theta``: the
         ``initial`` oldest designs with values, the ``recent`` newest, then the best-ranked of the rest
-        (newest first among equals)."""
+        (newest first among equals). With ``hyperparameter_initial`` above 0, the hyperparameters are fitted
+        on another set of ``cap`` designs, the ``hyperparameter_initial`` oldest and the best-ranked of the
+        rest, and each model then predicts from the first set with them."""
         theta = theta or {}
         ok = ~data.failed
         if ok.sum() < 2:
             raise ValueError(f"the surrogate needs at least 2 designs with values, the store has {int(ok.sum())}")
-        chosen = np.flatnonzero(ok)
-        # a design the models misjudged ranks low and would never be learnt from once the store outgrows
-        # the cap: the newest are kept whatever their rank
-        by_age = chosen[np.argsort(data.order[chosen], kind="stable")]
-        # the first designs (the initial population) are spread over the box: without them the best-ranked
-        # crowd near the front, and the fitted length scales and warpings extrapolate the front's values into
-        # the corners nobody has looked at since
-        oldest = by_age[:min(initial, cap)]
-        newest = by_age[len(oldest):][::-1][:min(recent, cap - len(oldest))]
-        rest = np.setdiff1d(chosen, np.concatenate([oldest, newest]))
-        rest = rest[np.lexsort((-data.order[rest], data.rank[rest]))][:cap - len(oldest) - len(newest)]
-        chosen = np.concatenate([oldest, newest, rest])
-        X = self.scale(data.X[chosen])
+        chosen = _training_set(data, cap, recent, initial)
+        # the initial population shows how a response varies over the whole box (its length scales and
+        # warpings); once the store outgrows the cap the best-ranked crowd near the front, where those are
+        # not identifiable, and a fitted warping decays to the identity
+        hyper = _training_set(data, cap, 0, hyperparameter_initial) if hyperparameter_initial else chosen
+        X, X_hyper = self.scale(data.X[chosen]), self.scale(data.X[hyper])
         self.training_size = len(chosen)
-        targets = [(label, data.F[chosen, i]) for i, label in enumerate(self.objectives)]
-        targets += [(label, data.G[chosen, i]) for i, label in enumerate(self.constraints)]
+        targets = [(label, data.F[:, i]) for i, label in enumerate(self.objectives)]
+        targets += [(label, data.G[:, i]) for i, label in enumerate(self.constraints)]
 
         def regression(label: str, y: np.ndarray):
-            return _regressor(X.shape[1], theta.get(label), self.kernel, self.warp_prior_variance).fit(X, y)
+            fitted = _regressor(X.shape[1], theta.get(label), self.kernel, self.warp_prior_variance)
+            fitted.fit(X_hyper, y[hyper])
+            return fitted if hyper is chosen else _Conditioned(fitted.kernel_, y[hyper], X, y[chosen])
 
         # the models are independent, and each fit is deterministic on its own thread (one BLAS thread, its
         # own optimiser state), so they are fitted side by side on the cores the idle workers leave

@@ -115,6 +115,30 @@ def test_the_first_designs_keep_the_box_in_view():
     assert np.abs(by_rank.predict(corners).mean[:, 0] - truth).max() > 0.2
 
 
+
+def test_hyperparameters_from_the_first_designs_keep_their_units_when_conditioned_on_the_front():
+    """``hyperparameter_initial``: with every design in both sets the models are those fitted the usual way
+    (the conditioning keeps the objective's unit); with the first twenty for the hyperparameters and the
+    forty near the front to predict from, the models predict the front as those fitted on it do."""
+    rng = np.random.default_rng(3)
+    X = np.vstack([rng.random((20, 2)), 0.45 + 0.1 * rng.random((40, 2))])
+    F = 3.0 + 10.0 * ((X - 0.5) ** 2).sum(axis=1, keepdims=True)
+    rank = np.r_[np.full(20, 9.0), np.zeros(40)]
+    data = TrainingData(X, np.zeros(60, bool), F, np.zeros((60, 0)), rank, np.arange(60.0))
+    usual = Models(np.zeros(2), np.ones(2), ["f"], []).fit(data, cap=60)
+    both = Models(np.zeros(2), np.ones(2), ["f"], []).fit(data, cap=60, hyperparameter_initial=20)
+    Y = rng.random((10, 2))
+    assert both.predict(Y).mean == pytest.approx(usual.predict(Y).mean, rel=1e-4)
+    assert both.predict(Y).std == pytest.approx(usual.predict(Y).std, rel=1e-3, abs=1e-6)
+    by_rank = Models(np.zeros(2), np.ones(2), ["f"], []).fit(data, cap=40)
+    split = Models(np.zeros(2), np.ones(2), ["f"], []).fit(data, cap=40, hyperparameter_initial=20)
+    assert split.training_size == 40
+    near = 0.47 + 0.06 * rng.random((10, 2))
+    truth = 3.0 + 10.0 * ((near - 0.5) ** 2).sum(axis=1)
+    assert np.abs(split.predict(near).mean[:, 0] - truth).max() < 0.01
+    assert np.abs(by_rank.predict(near).mean[:, 0] - truth).max() < 0.01
+
+
 @pytest.mark.slow
 def test_models_fitted_side_by_side_are_those_fitted_one_after_another(monkeypatch):
     import optimizer.campaign.surrogate as surrogate
@@ -393,6 +417,8 @@ def test_plain_generations_record_their_draws(tmp_path):
     ("algorithm.surrogate.warp_prior_variance=0", r"algorithm.surrogate.warp_prior_variance"),
     ("algorithm.surrogate.warp_prior_variance=1.25", r"'algorithm.surrogate.warp_prior_variance' = 1.25 sets the "
                                                      r"prior .* algorithm.surrogate.kernel is 'product'"),
+    ("algorithm.surrogate.hyperparameter_initial=201", r"algorithm.surrogate.hyperparameter_initial' = 201 is "
+                                                        r"more than algorithm.surrogate.training \(200\)"),
     ("algorithm.surrogate.kappa=2", r"unknown key 'algorithm.surrogate.kappa'; allowed: pool, exploration"),
 ])
 def test_bad_surrogate_settings_name_the_key(tmp_path, override, message):
