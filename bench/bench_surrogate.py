@@ -28,6 +28,8 @@ archive's front against ZDT1's true front.
     python bench/bench_surrogate.py --cases dtlz2 --kernel warped --coordinate-search --recent 50 --stop-at-target
     python bench/bench_surrogate.py --cases mw2 --kernel warped --coordinate-search --recent 50 --training 250
     python bench/bench_surrogate.py --cases mw2 --kernel warped --coordinate-search --initial 100 --stop-at-target
+    python bench/bench_surrogate.py --cases mw2 mw1 dtlz2 --kernel warped --coordinate-search --warp-prior-variance 1.25
+    python bench/bench_surrogate.py --cases mw1 --kernel warped --coordinate-search --hyperparameter-initial 100
     python bench/bench_surrogate.py --report-only --json docs/figures/surrogate.json
     python bench/bench_surrogate.py --igd-only --kernel additive --coordinate-search   # pysamoo's budget only
 """
