@@ -169,7 +169,8 @@ class Models:
     lower, upper: the design box; labels: names of the modelled objectives and constraints (for the
     stored hyperparameters); kernel: ``product``, ``additive`` or ``warped`` (``algorithm.surrogate.kernel``, the
     module docstring); warp_prior_variance: with ``warped``, the variance of the normal prior on the log
-    warping exponents (``algorithm.surrogate.warp_prior_variance``).
+    warping exponents (``algorithm.surrogate.warp_prior_variance``); theta (in :meth:`fit`):
+    ``{label: log-hyperparameters}`` to warm-start from.
     """
 
     def __init__(self, lower: np.ndarray, upper: np.ndarray, objectives: Sequence[str], constraints: Sequence[str],
