@@ -208,6 +208,8 @@ class Models:
         # warpings); once the store outgrows the cap the best-ranked crowd near the front, where those are
         # not identifiable, and a fitted warping decays to the identity
         hyper = _training_set(data, cap, 0, hyperparameter_initial) if hyperparameter_initial else chosen
+        if np.array_equal(np.sort(hyper), np.sort(chosen)):
+            hyper = chosen                 # the same designs: fitted the usual way, in the usual order
         X, X_hyper = self.scale(data.X[chosen]), self.scale(data.X[hyper])
         self.training_size = len(chosen)
         targets = [(label, data.F[:, i]) for i, label in enumerate(self.objectives)]
