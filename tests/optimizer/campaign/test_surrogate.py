@@ -118,8 +118,8 @@ def test_the_first_designs_keep_the_box_in_view():
 
 def test_hyperparameters_from_the_first_designs_keep_their_units_when_conditioned_on_the_front():
     """``hyperparameter_initial``: with every design in both sets the models are those fitted the usual way;
-    with the first twenty for the hyperparameters and the
-    forty near the front to predict from, the models predict the front as those fitted on it do."""
+    with the first twenty for the hyperparameters and the forty near the front to predict from, the models
+    predict the front as those fitted on it do."""
     rng = np.random.default_rng(3)
     X = np.vstack([rng.random((20, 2)), 0.45 + 0.1 * rng.random((40, 2))])
     F = 3.0 + 10.0 * ((X - 0.5) ** 2).sum(axis=1, keepdims=True)
