@@ -207,9 +207,11 @@ class Models:
         # the initial population shows how a response varies over the whole box (its length scales and
         # warpings); once the store outgrows the cap the best-ranked crowd near the front, where those are
         # not identifiable, and a fitted warping decays to the identity
-        hyper = _training_set(data, cap, 0, hyperparameter_initial) if hyperparameter_initial else chosen
-        if np.array_equal(np.sort(hyper), np.sort(chosen)):
-            hyper = chosen                 # the same designs: fitted the usual way, in the usual order
+        hyper = chosen
+        if hyperparameter_initial:
+            spread = _training_set(data, cap, 0, hyperparameter_initial)
+            if not np.array_equal(np.sort(spread), np.sort(chosen)):   # the same designs: the usual fit
+                hyper = spread
         X, X_hyper = self.scale(data.X[chosen]), self.scale(data.X[hyper])
         self.training_size = len(chosen)
         targets = [(label, data.F[:, i]) for i, label in enumerate(self.objectives)]
