@@ -63,6 +63,7 @@ class Rule:
     exploration: float = SCHEMA.exploration
     warp_prior_variance: float = SCHEMA.warp_prior_variance
     hyperparameter_initial: int = SCHEMA.hyperparameter_initial
+    until_feasible: str = SCHEMA.until_feasible
 
     def name(self) -> str:
         d = SCHEMA
@@ -75,7 +76,8 @@ class Rule:
                          *([f"exploration{self.exploration:g}"] if self.exploration != d.exploration else []),
                          *([f"prior{self.warp_prior_variance:g}"]
                            if self.warp_prior_variance != d.warp_prior_variance else []),
-                         *([f"hyper{self.hyperparameter_initial}"] if self.hyperparameter_initial else [])])
+                         *([f"hyper{self.hyperparameter_initial}"] if self.hyperparameter_initial else []),
+                         *([f"until{self.until_feasible}"] if self.until_feasible != d.until_feasible else [])])
 
     def settings(self) -> dict:
         """The ``algorithm.surrogate`` keys whose values are not the schema's defaults."""
@@ -89,7 +91,7 @@ class Rule:
 
 def add_rule_arguments(parser: argparse.ArgumentParser) -> None:
     """The command-line options that choose a :class:`Rule`."""
-    from optimizer.campaign.config import KERNELS
+    from optimizer.campaign.config import KERNELS, UNTIL_FEASIBLE
 
     d = Rule()
     parser.add_argument("--kernel", choices=KERNELS, default=d.kernel,
@@ -111,6 +113,9 @@ def add_rule_arguments(parser: argparse.ArgumentParser) -> None:
                              "when not the default)")
     parser.add_argument("--hyperparameter-initial", type=int, default=d.hyperparameter_initial,
                         help="algorithm.surrogate.hyperparameter_initial (runs named ...-hyperH-N)")
+    parser.add_argument("--until-feasible", choices=UNTIL_FEASIBLE, default=d.until_feasible,
+                        help="algorithm.surrogate.until_feasible (runs named ...-untilprobability-N when not the "
+                             "default)")
 
 
 def rule_from(args: argparse.Namespace) -> Rule:

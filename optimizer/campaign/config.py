@@ -181,6 +181,8 @@ class Mutation(Section):
 METHODS = ("nsga2", "surrogate")
 #: Kernels of ``algorithm.surrogate.kernel`` (:mod:`optimizer.campaign.surrogate`).
 KERNELS = ("product", "additive", "warped")
+#: Aims of the exploration share before the first feasible design (``algorithm.surrogate.until_feasible``).
+UNTIL_FEASIBLE = ("optimistic", "probability")
 
 
 class SurrogateSettings(Section):
@@ -228,6 +230,12 @@ class SurrogateSettings(Section):
                                        "normal prior on the logarithms of the warping exponents (a log-normal "
                                        "prior of median 1, no warping): smaller keeps the maps nearer the "
                                        "identity, larger lets the fit take steep ones (decision 0017)")
+    until_feasible: Literal[UNTIL_FEASIBLE] = Field("optimistic", description="what the exploration share (and the "
+                                                    "optimistic half of the coordinate search) aims at while no "
+                                                    "evaluated design meets every CFD constraint. optimistic: the "
+                                                    "optimistic objectives and constraints (mean − 2 std), as "
+                                                    "afterwards; probability: the models' probability that a design "
+                                                    "meets every constraint and does not fail (decision 0017)")
 
 
 class AlgorithmConfig(Section):

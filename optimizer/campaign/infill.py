@@ -119,14 +119,17 @@ def _improvement_2d(front: np.ndarray, points: np.ndarray, reference: np.ndarray
 def choose(prediction: Prediction, front: np.ndarray, reference: np.ndarray | None, batch: int, exploration: float,
            failure_limit: float, X: np.ndarray, evaluated: np.ndarray,
            confirm: Callable[[int], bool] = lambda i: True,
-           boundary: np.ndarray | None = None) -> tuple[np.ndarray, list[str]]:
+           boundary: np.ndarray | None = None, until_feasible: str = "optimistic") -> tuple[np.ndarray, list[str]]:
     """Indices into the pool (rows of ``X``, scaled to the unit box) and their roles (module docstring).
 
     front: ``(k, m)`` minimised objectives of the run's feasible non-dominated designs; reference: the
     run's hypervolume reference point (minimised; None: from the front and the predictions); evaluated:
     ``(e, d)`` scaled design vectors already evaluated (never chosen again); confirm: the full geometric
     check of a pool row, run on each candidate the choice reaches before it is taken (False: skipped);
-    boundary: ``(n,)`` bool, the rows that are boundary candidates (only the boundary share takes them)."""
+    boundary: ``(n,)`` bool, the rows that are boundary candidates (only the boundary share takes them);
+    until_feasible: ``probability``: while the run has no feasible design and has modelled constraints, the
+    exploration share takes the candidates most likely to meet every constraint and not fail
+    (:func:`feasibility_probability`) instead of those with the most optimistic objectives."""
     n = len(X)
     if n == 0:
         return np.zeros(0, int), []
@@ -144,6 +147,10 @@ def choose(prediction: Prediction, front: np.ndarray, reference: np.ndarray | No
     roles: list[str] = []
     n_explore = int(round(exploration * batch))
     n_boundary = int(round(BOUNDARY * batch)) if boundary.any() else 0
+    seeking = _seeking_feasibility(until_feasible, front, prediction)
+    if seeking:
+        hopeful = safe
+        chance = feasibility_probability(prediction)
     for role, points, allowed, slots in (("boundary", mean, safe & boundary, n_boundary),
                                          ("exploit", mean, feasible & ~boundary, None),
                                          ("explore", optimistic, hopeful & ~boundary, n_explore)):
@@ -153,7 +160,10 @@ def choose(prediction: Prediction, front: np.ndarray, reference: np.ndarray | No
             candidates = np.flatnonzero(available & allowed)
             if len(candidates) == 0:
                 break
-            gain = hypervolume_improvement(believed, points[candidates], reference)
+            if seeking and role == "explore":
+                gain = chance[candidates]
+            else:
+                gain = hypervolume_improvement(believed, points[candidates], reference)
             if gain.max() <= 0.0:
                 break
             pick = int(candidates[int(np.argmax(gain))])
@@ -183,6 +193,21 @@ def choose(prediction: Prediction, front: np.ndarray, reference: np.ndarray | No
         roles.append("fill")
         available &= ~_near(X, X[pick][None])
     return np.array(chosen, int), roles
+
+
+def feasibility_probability(prediction: Prediction) -> np.ndarray:
+    """``(n,)`` the models' probability that each design meets every modelled constraint and does not fail:
+    ``Π Φ(−g_mean/g_std) · (1 − p_fail)``, the constraints taken as independent."""
+    from scipy.stats import norm
+
+    log = norm.logcdf(-prediction.g_mean / np.maximum(prediction.g_std, 1e-12)).sum(axis=1)
+    return np.exp(log) * (1.0 - prediction.p_fail)
+
+
+def _seeking_feasibility(until_feasible: str, front: np.ndarray, prediction: Prediction) -> bool:
+    """Whether exploration aims at feasibility: asked for, the run has modelled constraints and no design
+    has yet met them all."""
+    return until_feasible == "probability" and len(front) == 0 and prediction.g_mean.shape[1] > 0
 
 
 def _predicted_rank(prediction: Prediction, failure_limit: float) -> np.ndarray:
@@ -270,7 +295,7 @@ def _on_models(problem, models: Models, failure_limit: float, feasible: Callable
 def propose(problem, models: Models, population_X: np.ndarray, *, batch: int, pool: int, exploration: float,
             failure_limit: float, front: np.ndarray, reference: np.ndarray | None, evaluated_X: np.ndarray, seed: int,
             crossover, mutation, population_size: int, boundary_X: np.ndarray | None = None,
-            coordinate_search: bool = False) -> Proposal:
+            coordinate_search: bool = False, until_feasible: str = "optimistic") -> Proposal:
     """The batch of one surrogate-assisted generation (module docstring).
 
     problem: the :class:`CampaignProblem`; models: fitted on the store; population_X: the campaign's
@@ -280,7 +305,8 @@ def propose(problem, models: Models, population_X: np.ndarray, *, batch: int, po
     crossover, mutation: the campaign's settings (``eta``, ``prob``); boundary_X: candidates of the
     boundary share (:func:`boundary_midpoints`, problem units), which meet the cheap geometric conditions
     and the full check like every other candidate; coordinate_search: add the inner search's best designs,
-    moved by :func:`search_coordinates` on the models, to the pool."""
+    moved by :func:`search_coordinates` on the models, to the pool; until_feasible: what exploration aims at
+    while the run has no feasible design (:func:`choose`, :func:`search_coordinates`)."""
     from pymoo.algorithms.moo.nsga2 import NSGA2
     from pymoo.operators.crossover.sbx import SBX
     from pymoo.operators.mutation.pm import PM
@@ -305,7 +331,8 @@ def propose(problem, models: Models, population_X: np.ndarray, *, batch: int, po
     result = minimize(inner, algorithm, ("n_gen", generations + 1), seed=seed, verbose=False)
     if coordinate_search and result.pop is not None:
         polished = search_coordinates(models, result.pop.get("X")[:batch], problem.lower, problem.upper,
-                                      failure_limit, feasible, front, reference, np.random.default_rng(seed))
+                                      failure_limit, feasible, front, reference, np.random.default_rng(seed),
+                                      until_feasible=until_feasible)
         inner.pool.append(polished)
         inner.drawn += len(polished)
     pool_X = np.vstack(inner.pool) if inner.pool else np.zeros((0, problem.n_var))
@@ -329,7 +356,7 @@ def propose(problem, models: Models, population_X: np.ndarray, *, batch: int, po
 
     index, roles = choose(prediction, front, reference, batch, exploration, failure_limit, scaled,
                           models.scale(evaluated_X) if len(evaluated_X) else np.zeros((0, problem.n_var)), confirm,
-                          boundary)
+                          boundary, until_feasible)
     chosen = Prediction(*(getattr(prediction, f)[index] for f in ("mean", "std", "g_mean", "g_std", "p_fail")))
     drawn = inner.drawn + (len(boundary_X) if boundary_X is not None else 0)
     return Proposal(pool_X[index], roles, chosen, drawn, len(pool_X), checks["checked"], checks["rejected"],
@@ -374,7 +401,7 @@ def boundary_midpoints(data: TrainingData, reference: np.ndarray | None, lower: 
 def search_coordinates(models: Models, starts: np.ndarray, lower: np.ndarray, upper: np.ndarray,
                       failure_limit: float, feasible: Callable[[np.ndarray], np.ndarray], front: np.ndarray,
                       reference: np.ndarray | None, rng: np.random.Generator, grid: int = 17,
-                      sweeps: int = 3) -> np.ndarray:
+                      sweeps: int = 3, until_feasible: str = "optimistic") -> np.ndarray:
     """Each of ``starts`` moved, one variable at a time, to the best value of the models' merit on a grid.
 
     The merit of a design is the augmented Chebyshev distance (Knowles's ParEGO scalarisation, ρ =
@@ -384,7 +411,12 @@ def search_coordinates(models: Models, starts: np.ndarray, lower: np.ndarray, up
     the maximum still counts. A predicted constraint violation or a failure probability above
     ``failure_limit`` outweighs any objective. Every second start is moved on the optimistic predictions
     instead (objectives and constraints at mean − κ·std, κ = :data:`KAPPA`, the exploration share's view):
-    where the models know nothing of part of a variable's range, that start goes to look.
+    where the models know nothing of part of a variable's range, that start goes to look. With
+    ``until_feasible = "probability"``, while the run has no feasible design and has modelled constraints,
+    those starts maximise the probability of meeting every constraint and not failing
+    (:func:`feasibility_probability`) instead: a move into an unknown range is made only where it is
+    likely to pay, so each such start changes the few variables the models are least sure hold it back,
+    rather than every variable at once.
 
     The first sweep tries ``grid`` values over each variable's whole range, the next ones a grid as wide as
     one step of the previous, centred on the value kept (variables in a random order each sweep). A move
@@ -400,14 +432,20 @@ def search_coordinates(models: Models, starts: np.ndarray, lower: np.ndarray, up
     lo, hi = _normalisation(front, start.mean, reference)
     utopia = lo - 0.1 * (hi - lo)                     # so that a start at the ideal point still has a ray
     weight = np.repeat((start.mean - utopia) / (hi - lo), grid + 1, axis=0)
-    kappa = np.repeat(np.where(np.arange(n) % 2 == 1, KAPPA, 0.0), grid + 1)[:, None]
+    optimistic = np.repeat(np.arange(n) % 2 == 1, grid + 1)
+    kappa = np.where(optimistic, KAPPA, 0.0)[:, None]
+    seeking = _seeking_feasibility(until_feasible, front, start)
 
     def merit(Y: np.ndarray) -> np.ndarray:
         p = models.predict(Y)
         scaled = (p.mean - kappa * p.std - utopia) / (hi - lo) / np.maximum(weight, 1e-3)
         risk = (np.clip(p.g_mean - kappa * p.g_std, 0.0, None).sum(axis=1)
                 + np.clip(p.p_fail - failure_limit, 0.0, None))
-        return scaled.max(axis=1) + AUGMENTED * scaled.sum(axis=1) + 1e3 * risk
+        value = scaled.max(axis=1) + AUGMENTED * scaled.sum(axis=1) + 1e3 * risk
+        if seeking:
+            chance = -np.log(np.maximum(feasibility_probability(p), 1e-300))
+            value = np.where(optimistic, chance + 1e3 * np.clip(p.p_fail - failure_limit, 0.0, None), value)
+        return value
 
     steps = np.linspace(-1.0, 1.0, grid)
     for sweep in range(sweeps):

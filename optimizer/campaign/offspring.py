@@ -165,7 +165,8 @@ class SurrogateOffspring(PlainOffspring):
                                    exploration=a.surrogate.exploration, failure_limit=a.surrogate.failure_limit,
                                    front=front, reference=reference, evaluated_X=taken, seed=_seed(a.seed, g, k),
                                    crossover=a.crossover, mutation=a.mutation, population_size=a.population,
-                                   boundary_X=boundary_X, coordinate_search=a.surrogate.coordinate_search)
+                                   boundary_X=boundary_X, coordinate_search=a.surrogate.coordinate_search,
+                                   until_feasible=a.surrogate.until_feasible)
             fitted.append(models)
             proposals.append(proposal)
             taken = np.vstack([taken, proposal.X]) if len(proposal.X) else taken

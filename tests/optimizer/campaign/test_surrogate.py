@@ -232,6 +232,49 @@ def test_the_coordinate_search_makes_no_move_that_breaks_the_cheap_conditions():
     assert moved[0, 2] < 0.5 and np.allclose(moved[0, [1, 3]], 0.8, atol=0.01)
 
 
+class _UnsureConstraint:
+    """Models of one constraint that the designs all violate: raising x2 makes it worse on the mean and less
+    certain, in the objectives too, so that the optimistic point favours it while the probability of meeting
+    the constraint falls; x1 near 1 meets it, as the models are fairly sure. Objectives: flat."""
+
+    def predict(self, X):
+        n = len(X)
+        g_mean = 0.3 + 3.0 * X[:, 1] - 0.5 * (X[:, 0] > 0.9)
+        g_std = 0.2 + 1.6 * X[:, 1]
+        std = np.repeat((0.1 + X[:, 1])[:, None], 2, axis=1)
+        return Prediction(np.zeros((n, 2)), std, g_mean[:, None], g_std[:, None], np.zeros(n))
+
+
+@pytest.mark.parametrize("until_feasible, x1, x2", [("optimistic", 0.05, 1.0), ("probability", 1.0, 0.05)])
+def test_before_the_first_feasible_design_exploration_aims_as_asked(until_feasible, x1, x2):
+    starts = np.array([[0.05, 0.05], [0.05, 0.05]])          # the second start is the optimistic one
+    moved = search_coordinates(_UnsureConstraint(), starts, np.zeros(2), np.ones(2), 0.5,
+                               lambda X: np.ones(len(X), bool), front=np.zeros((0, 2)),
+                               reference=np.array([1.1, 1.1]), rng=np.random.default_rng(1),
+                               until_feasible=until_feasible)
+    assert moved[1] == pytest.approx([x1, x2], abs=0.07)
+    assert moved[0][0] > 0.9 and moved[0][1] == 0.05         # the mean's start meets the constraint either way
+
+
+def test_before_the_first_feasible_design_exploration_can_take_the_likeliest_to_be_feasible():
+    X = np.array([[0.05, 1.0], [1.0, 0.05], [0.05, 0.05]])
+    prediction = _UnsureConstraint().predict(X)
+    taken = {aim: choose(prediction, front=np.zeros((0, 2)), reference=np.array([1.1, 1.1]), batch=1,
+                         exploration=1.0, failure_limit=0.5, X=X, evaluated=np.zeros((0, 2)), until_feasible=aim)
+             for aim in ("optimistic", "probability")}
+    assert list(taken["optimistic"][0]) == [0] and list(taken["probability"][0]) == [1]
+    assert taken["probability"][1] == ["explore"]
+
+
+def test_with_a_feasible_design_exploration_aims_at_the_optimistic_point_whatever_was_asked():
+    starts = np.array([[0.05, 0.05], [0.05, 0.05]])
+    moved = [search_coordinates(_UnsureConstraint(), starts, np.zeros(2), np.ones(2), 0.5,
+                                lambda X: np.ones(len(X), bool), front=np.array([[0.5, 0.5]]),
+                                reference=np.array([1.1, 1.1]), rng=np.random.default_rng(1), until_feasible=aim)
+             for aim in ("optimistic", "probability")]
+    assert np.array_equal(*moved)
+
+
 def _boundary_data(G):
     """A front design at (0.8, 0.5); violating designs: one improving the front near it, one improving it
     farther away, one nearest of all that improves nothing."""
@@ -419,6 +462,8 @@ def test_plain_generations_record_their_draws(tmp_path):
                                                      r"prior .* algorithm.surrogate.kernel is 'product'"),
     ("algorithm.surrogate.hyperparameter_initial=201", r"algorithm.surrogate.hyperparameter_initial' = 201 is "
                                                         r"more than algorithm.surrogate.training \(200\)"),
+    ("algorithm.surrogate.until_feasible=maybe", r"algorithm.surrogate.until_feasible' = 'maybe' is not allowed; "
+                                                 r"allowed: 'optimistic' or 'probability'"),
     ("algorithm.surrogate.kappa=2", r"unknown key 'algorithm.surrogate.kappa'; allowed: pool, exploration"),
 ])
 def test_bad_surrogate_settings_name_the_key(tmp_path, override, message):
