@@ -28,7 +28,8 @@ The rule (the reasoning and its evidence: ``docs/decisions/0017-surrogate-infill
    nothing improves.
 4. **Exploration** (``exploration·batch``): the same greedy step on the *optimistic* point
    ``mean − κ·std`` (κ = 2): designs whose uncertainty could put them on the front, which is where the
-   models learn most.
+   models learn most. With ``until_feasible: probability``, while no evaluated design meets every
+   constraint, the designs most likely to meet them instead (:func:`feasibility_probability`).
 5. Slots still empty (nothing is predicted to improve the front) follow NSGA-II's order on the
    predictions: the best constrained non-dominated rank first, within it the candidate farthest from every
    design chosen or evaluated, so a generation always sends a full batch and still moves towards the
