@@ -64,6 +64,7 @@ class Rule:
     warp_prior_variance: float = SCHEMA.warp_prior_variance
     hyperparameter_initial: int = SCHEMA.hyperparameter_initial
     until_feasible: str = SCHEMA.until_feasible
+    front_ends: bool = SCHEMA.front_ends
 
     def name(self) -> str:
         d = SCHEMA
@@ -77,7 +78,8 @@ class Rule:
                          *([f"prior{self.warp_prior_variance:g}"]
                            if self.warp_prior_variance != d.warp_prior_variance else []),
                          *([f"hyper{self.hyperparameter_initial}"] if self.hyperparameter_initial else []),
-                         *([f"until{self.until_feasible}"] if self.until_feasible != d.until_feasible else [])])
+                         *([f"until{self.until_feasible}"] if self.until_feasible != d.until_feasible else []),
+                         *(["ends"] if self.front_ends else [])])
 
     def settings(self) -> dict:
         """The ``algorithm.surrogate`` keys whose values are not the schema's defaults."""
@@ -116,6 +118,8 @@ def add_rule_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--until-feasible", choices=UNTIL_FEASIBLE, default=d.until_feasible,
                         help="algorithm.surrogate.until_feasible (runs named ...-untilprobability-N when not the "
                              "default)")
+    parser.add_argument("--front-ends", action="store_true",
+                        help="algorithm.surrogate.front_ends, with --coordinate-search (runs named ...-ends-N)")
 
 
 def rule_from(args: argparse.Namespace) -> Rule:

@@ -236,6 +236,9 @@ class SurrogateSettings(Section):
                                                     "optimistic objectives and constraints (mean − 2 std), as "
                                                     "afterwards; probability: the models' probability that a design "
                                                     "meets every constraint and does not fail (decision 0017)")
+    front_ends: bool = Field(False, description="with coordinate_search, also move the designs predicted best in "
+                             "each objective to minimise that objective alone (on the mean and on the optimistic "
+                             "predictions), so that the search extends the front beyond its ends (decision 0017)")
 
 
 class AlgorithmConfig(Section):
@@ -475,6 +478,11 @@ def check_campaign(config: CampaignConfig, source: Any) -> CampaignConfig:
                           f"{s.warp_prior_variance:g} sets the prior of the warped kernel's exponents, but "
                           f"algorithm.surrogate.kernel is {s.kernel!r}; allowed: kernel 'warped', or the default "
                           "variance")
+    if s.front_ends and not s.coordinate_search:
+        path = ("algorithm", "surrogate", "front_ends")
+        raise ConfigError(f"{source.where(path)}: 'algorithm.surrogate.front_ends' = true moves the front's ends "
+                          "by the coordinate search, but algorithm.surrogate.coordinate_search is false; allowed: "
+                          "front_ends false (the default) or coordinate_search true")
     return config
 
 

@@ -14,7 +14,8 @@ The rule (the reasoning and its evidence: ``docs/decisions/0017-surrogate-infill
    runs on each design the choice below reaches, before it is taken: an infeasible design is never sent,
    and the pool costs a few dozen full checks instead of a thousand. With ``coordinate_search`` the
    inner search's best ``batch`` designs also join the pool after a coordinate search on the models
-   (:func:`search_coordinates`).
+   (:func:`search_coordinates`); with ``front_ends`` too the designs predicted best in each objective, moved
+   to minimise that objective alone, so that the front grows beyond its ends.
 2. **Boundary** (a quarter of the batch, :data:`BOUNDARY`; only in a run with CFD constraints, a feasible
    front and evaluated designs that violate a constraint yet would improve the front): candidates are the
    midpoints between each front design and the nearest such violating design (:func:`boundary_midpoints`),
@@ -296,7 +297,7 @@ def _on_models(problem, models: Models, failure_limit: float, feasible: Callable
 def propose(problem, models: Models, population_X: np.ndarray, *, batch: int, pool: int, exploration: float,
             failure_limit: float, front: np.ndarray, reference: np.ndarray | None, evaluated_X: np.ndarray, seed: int,
             crossover, mutation, population_size: int, boundary_X: np.ndarray | None = None,
-            coordinate_search: bool = False, until_feasible: str = "optimistic") -> Proposal:
+            coordinate_search: bool = False, until_feasible: str = "optimistic", front_ends: bool = False) -> Proposal:
     """The batch of one surrogate-assisted generation (module docstring).
 
     problem: the :class:`CampaignProblem`; models: fitted on the store; population_X: the campaign's
@@ -307,7 +308,8 @@ def propose(problem, models: Models, population_X: np.ndarray, *, batch: int, po
     boundary share (:func:`boundary_midpoints`, problem units), which meet the cheap geometric conditions
     and the full check like every other candidate; coordinate_search: add the inner search's best designs,
     moved by :func:`search_coordinates` on the models, to the pool; until_feasible: what exploration aims at
-    while the run has no feasible design (:func:`choose`, :func:`search_coordinates`)."""
+    while the run has no feasible design (:func:`choose`, :func:`search_coordinates`); front_ends: the
+    coordinate search also moves the ends of the predicted front outwards (:func:`search_coordinates`)."""
     from pymoo.algorithms.moo.nsga2 import NSGA2
     from pymoo.operators.crossover.sbx import SBX
     from pymoo.operators.mutation.pm import PM
@@ -333,7 +335,7 @@ def propose(problem, models: Models, population_X: np.ndarray, *, batch: int, po
     if coordinate_search and result.pop is not None:
         polished = search_coordinates(models, result.pop.get("X")[:batch], problem.lower, problem.upper,
                                       failure_limit, feasible, front, reference, np.random.default_rng(seed),
-                                      until_feasible=until_feasible)
+                                      until_feasible=until_feasible, front_ends=front_ends)
         inner.pool.append(polished)
         inner.drawn += len(polished)
     pool_X = np.vstack(inner.pool) if inner.pool else np.zeros((0, problem.n_var))
@@ -402,7 +404,7 @@ def boundary_midpoints(data: TrainingData, reference: np.ndarray | None, lower: 
 def search_coordinates(models: Models, starts: np.ndarray, lower: np.ndarray, upper: np.ndarray,
                       failure_limit: float, feasible: Callable[[np.ndarray], np.ndarray], front: np.ndarray,
                       reference: np.ndarray | None, rng: np.random.Generator, grid: int = 17,
-                      sweeps: int = 3, until_feasible: str = "optimistic") -> np.ndarray:
+                      sweeps: int = 3, until_feasible: str = "optimistic", front_ends: bool = False) -> np.ndarray:
     """Each of ``starts`` moved, one variable at a time, to the best value of the models' merit on a grid.
 
     The merit of a design is the augmented Chebyshev distance (Knowles's ParEGO scalarisation, ρ =
@@ -419,12 +421,18 @@ def search_coordinates(models: Models, starts: np.ndarray, lower: np.ndarray, up
     likely to pay, so each such start changes the few variables the models are least sure hold it back,
     rather than every variable at once.
 
+    With ``front_ends``, the start predicted best in each objective (among those predicted feasible, where
+    any is) is moved twice more, on the mean and on the optimistic predictions, to minimise that objective
+    alone (the others weighted 10⁻³ of it): a ray through a start's own prediction keeps every start where
+    it is along the front, so without these moves nothing is aimed beyond the front's ends, where the
+    hypervolume gains most and where a constraint model fitted on the front's side is least reliable.
+
     The first sweep tries ``grid`` values over each variable's whole range, the next ones a grid as wide as
     one step of the previous, centred on the value kept (variables in a random order each sweep). A move
     that breaks the cheap geometric conditions is not made. The whole-range sweep crosses the barriers
     between one variable's basins, which SBX and PM steps around the population rarely cross, wherever the
-    models have learnt them (the additive kernel's one-variable terms). Returns the moved designs
-    ``(n, d)``, problem units."""
+    models have learnt them (the additive kernel's one-variable terms). Returns the moved designs, problem
+    units: ``(n, d)``, and with ``front_ends`` two more per objective after them."""
     X = np.array(starts, float)
     n, d = X.shape
     if n == 0:
@@ -432,8 +440,13 @@ def search_coordinates(models: Models, starts: np.ndarray, lower: np.ndarray, up
     start = models.predict(X)
     lo, hi = _normalisation(front, start.mean, reference)
     utopia = lo - 0.1 * (hi - lo)                     # so that a start at the ideal point still has a ray
-    weight = np.repeat((start.mean - utopia) / (hi - lo), grid + 1, axis=0)
-    optimistic = np.repeat(np.arange(n) % 2 == 1, grid + 1)
+    weight = (start.mean - utopia) / (hi - lo)
+    optimistic = np.arange(n) % 2 == 1
+    if front_ends:
+        X, weight, optimistic = _with_front_ends(X, start, weight, optimistic, failure_limit)
+        n = len(X)
+    weight = np.repeat(weight, grid + 1, axis=0)
+    optimistic = np.repeat(optimistic, grid + 1)
     kappa = np.where(optimistic, KAPPA, 0.0)[:, None]
     seeking = _seeking_feasibility(until_feasible, front, start)
 
@@ -467,3 +480,16 @@ def search_coordinates(models: Models, starts: np.ndarray, lower: np.ndarray, up
             keep[keep] = feasible(moved[keep])
             X[keep] = moved[keep]
     return X
+
+
+def _with_front_ends(X: np.ndarray, start: Prediction, weight: np.ndarray, optimistic: np.ndarray,
+                     failure_limit: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The starts of :func:`search_coordinates` with each objective's end added twice (on the mean and on the
+    optimistic predictions), weighted so that its merit is that objective alone."""
+    ok = (start.p_fail <= failure_limit) & np.all(start.g_mean <= 0.0, axis=1)
+    among = np.flatnonzero(ok) if ok.any() else np.arange(len(X))
+    m = weight.shape[1]
+    ends = [int(among[np.argmin(start.mean[among, k])]) for k in range(m)]
+    alone = np.where(np.eye(m, dtype=bool), 1.0, 1e3)   # merit ≈ objective k: the others divided by 10³
+    return (np.vstack([X, X[np.repeat(ends, 2)]]), np.vstack([weight, np.repeat(alone, 2, axis=0)]),
+            np.concatenate([optimistic, np.tile([False, True], m)]))

@@ -166,7 +166,8 @@ class SurrogateOffspring(PlainOffspring):
                                    front=front, reference=reference, evaluated_X=taken, seed=_seed(a.seed, g, k),
                                    crossover=a.crossover, mutation=a.mutation, population_size=a.population,
                                    boundary_X=boundary_X, coordinate_search=a.surrogate.coordinate_search,
-                                   until_feasible=a.surrogate.until_feasible)
+                                   until_feasible=a.surrogate.until_feasible,
+                                   front_ends=a.surrogate.front_ends)
             fitted.append(models)
             proposals.append(proposal)
             taken = np.vstack([taken, proposal.X]) if len(proposal.X) else taken

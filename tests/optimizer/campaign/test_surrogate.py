@@ -245,6 +245,28 @@ class _UnsureConstraint:
         return Prediction(np.zeros((n, 2)), std, g_mean[:, None], g_std[:, None], np.zeros(n))
 
 
+class _ConstraintBeyondTheEnd:
+    """Models of MW3's trouble: f1 = x1, f2 = 1 − x1, and a constraint the mean predicts violated for x1 above
+    0.7 (by 0.1, 1.5 standard deviations): the front's end at 0.6 can only grow on the optimistic view."""
+
+    def predict(self, X):
+        n = len(X)
+        mean = np.column_stack([X[:, 0], 1.0 - X[:, 0]])
+        g_mean = np.where(X[:, 0] > 0.7, 0.1, -0.1)
+        return Prediction(mean, np.full((n, 2), 0.01), g_mean[:, None], np.full((n, 1), 0.067), np.zeros(n))
+
+
+def test_the_front_ends_are_moved_outwards_on_the_mean_and_the_optimistic_view():
+    starts = np.array([[0.3, 0.5], [0.4, 0.5], [0.5, 0.5], [0.6, 0.5]])
+    search = lambda **kw: search_coordinates(_ConstraintBeyondTheEnd(), starts, np.zeros(2), np.ones(2), 0.5,  # noqa: E731
+                                             lambda X: np.ones(len(X), bool), front=np.array([[0.3, 0.7], [0.6, 0.4]]),
+                                             reference=np.array([1.1, 1.1]), rng=np.random.default_rng(1), **kw)
+    plain, ends = search(), search(front_ends=True)
+    assert len(plain) == 4 and np.array_equal(ends[:4], plain)
+    # f1's end (the start at 0.3) goes to 0 on either view; f2's end (0.6) to the largest x1 each view allows
+    assert ends[4:, 0] == pytest.approx([0.0, 0.0, 0.7, 1.0], abs=0.02)
+
+
 @pytest.mark.parametrize("until_feasible, x1, x2", [("optimistic", 0.05, 1.0), ("probability", 1.0, 0.05)])
 def test_before_the_first_feasible_design_exploration_aims_as_asked(until_feasible, x1, x2):
     starts = np.array([[0.05, 0.05], [0.05, 0.05]])          # the second start is the optimistic one
@@ -397,15 +419,17 @@ def test_the_coordinate_search_adds_its_designs_to_the_pool(tmp_path):
     """With ``coordinate_search`` each generation's pool holds the batch's worth of moved designs too, and the
     run still sends full batches."""
     drawn = {}
-    for flag in ("false", "true"):
+    for name, keys in (("plain", "coordinate_search: false"), ("search", "coordinate_search: true"),
+                       ("ends", "coordinate_search: true, front_ends: true")):
         config = campaign(tmp_path, ZDT1, "algorithm.method=surrogate", "algorithm.generations=3",
-                          f"algorithm.surrogate={{pool: 5, training: 40, coordinate_search: {flag}}}")
-        run_campaign(config, tmp_path / flag)
-        with Store(tmp_path / flag / STORE_NAME, readonly=True) as s:
+                          f"algorithm.surrogate={{pool: 5, training: 40, {keys}}}")
+        run_campaign(config, tmp_path / name)
+        with Store(tmp_path / name / STORE_NAME, readonly=True) as s:
             searches = [g.search for g in s.generations()[1:]]
         assert all(x["batch"] == 4 for x in searches)
-        drawn[flag] = [x["drawn"] for x in searches]
-    assert [t - f for t, f in zip(drawn["true"], drawn["false"], strict=True)] == [4, 4]
+        drawn[name] = np.array([x["drawn"] for x in searches])
+    assert list(drawn["search"] - drawn["plain"]) == [4, 4]
+    assert list(drawn["ends"] - drawn["plain"]) == [8, 8]           # two objectives, each end on two views
 
 
 @pytest.mark.parametrize("batch, recent, share, expected", [
@@ -464,6 +488,9 @@ def test_plain_generations_record_their_draws(tmp_path):
                                                         r"more than algorithm.surrogate.training \(200\)"),
     ("algorithm.surrogate.until_feasible=maybe", r"algorithm.surrogate.until_feasible' = 'maybe' is not allowed; "
                                                  r"allowed: 'optimistic' or 'probability'"),
+    ("algorithm.surrogate.front_ends=true", r"'algorithm.surrogate.front_ends' = true moves the front's ends .* "
+                                            r"algorithm.surrogate.coordinate_search is false"),
+    ("algorithm.surrogate.front_ends=often", r"algorithm.surrogate.front_ends"),
     ("algorithm.surrogate.kappa=2", r"unknown key 'algorithm.surrogate.kappa'; allowed: pool, exploration"),
 ])
 def test_bad_surrogate_settings_name_the_key(tmp_path, override, message):
