@@ -141,7 +141,7 @@ def choose(prediction: Prediction, front: np.ndarray, reference: np.ndarray | No
     believed = (front - lo) / (hi - lo) if len(front) else np.zeros((0, mean.shape[1]))
     reference = np.ones(mean.shape[1])
     safe = prediction.p_fail <= failure_limit
-    feasible = safe & np.all(prediction.g_mean <= 0.0, axis=1)
+    feasible = _predicted_feasible(prediction, failure_limit)
     hopeful = safe & np.all(prediction.g_mean - KAPPA * prediction.g_std <= 0.0, axis=1)
     available = ~_near(X, evaluated)
     boundary = np.zeros(n, bool) if boundary is None else boundary
@@ -204,6 +204,11 @@ def feasibility_probability(prediction: Prediction) -> np.ndarray:
 
     log = norm.logcdf(-prediction.g_mean / np.maximum(prediction.g_std, 1e-12)).sum(axis=1)
     return np.exp(log) * (1.0 - prediction.p_fail)
+
+
+def _predicted_feasible(prediction: Prediction, failure_limit: float) -> np.ndarray:
+    """``(n,)`` bool: designs the models' means predict to meet every constraint and not to fail."""
+    return (prediction.p_fail <= failure_limit) & np.all(prediction.g_mean <= 0.0, axis=1)
 
 
 def _seeking_feasibility(until_feasible: str, front: np.ndarray, prediction: Prediction) -> bool:
@@ -486,7 +491,7 @@ def _with_front_ends(X: np.ndarray, start: Prediction, weight: np.ndarray, optim
                      failure_limit: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The starts of :func:`search_coordinates` with each objective's end added twice (on the mean and on the
     optimistic predictions), weighted so that its merit is that objective alone."""
-    ok = (start.p_fail <= failure_limit) & np.all(start.g_mean <= 0.0, axis=1)
+    ok = _predicted_feasible(start, failure_limit)
     among = np.flatnonzero(ok) if ok.any() else np.arange(len(X))
     m = weight.shape[1]
     ends = [int(among[np.argmin(start.mean[among, k])]) for k in range(m)]
