@@ -65,6 +65,7 @@ class Rule:
     hyperparameter_initial: int = SCHEMA.hyperparameter_initial
     until_feasible: str = SCHEMA.until_feasible
     front_ends: bool = SCHEMA.front_ends
+    condition_on_batch: bool = SCHEMA.condition_on_batch
 
     def name(self) -> str:
         d = SCHEMA
@@ -79,7 +80,8 @@ class Rule:
                            if self.warp_prior_variance != d.warp_prior_variance else []),
                          *([f"hyper{self.hyperparameter_initial}"] if self.hyperparameter_initial else []),
                          *([f"until{self.until_feasible}"] if self.until_feasible != d.until_feasible else []),
-                         *(["ends"] if self.front_ends else [])])
+                         *(["ends"] if self.front_ends else []),
+                         *(["conditioned"] if self.condition_on_batch else [])])
 
     def settings(self) -> dict:
         """The ``algorithm.surrogate`` keys whose values are not the schema's defaults."""
@@ -120,6 +122,8 @@ def add_rule_arguments(parser: argparse.ArgumentParser) -> None:
                              "default)")
     parser.add_argument("--front-ends", action="store_true",
                         help="algorithm.surrogate.front_ends, with --coordinate-search (runs named ...-ends-N)")
+    parser.add_argument("--condition-on-batch", action="store_true",
+                        help="algorithm.surrogate.condition_on_batch (runs named ...-conditioned-N)")
 
 
 def rule_from(args: argparse.Namespace) -> Rule:

@@ -239,6 +239,11 @@ class SurrogateSettings(Section):
     front_ends: bool = Field(False, description="with coordinate_search, also move the designs predicted best in "
                              "each objective to minimise that objective alone (on the mean and on the optimistic "
                              "predictions), so that the search extends the front beyond its ends (decision 0017)")
+    condition_on_batch: bool = Field(False, description="the batch's choice also takes each design it has chosen "
+                                     "as observed at its predicted values in the models, so that their uncertainty "
+                                     "shrinks near it and the exploration share spreads over distinct designs "
+                                     "(exact for a Gaussian process with its hyperparameters fixed); false: only "
+                                     "the front takes the predictions (decision 0017)")
 
 
 class AlgorithmConfig(Section):

@@ -48,7 +48,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from optimizer.campaign.surrogate import Models, Prediction, TrainingData
+from optimizer.campaign.surrogate import BatchConditioning, Models, Prediction, TrainingData
 
 #: Optimism of the exploration share: the optimistic point is ``mean − KAPPA·std``.
 KAPPA = 2.0
@@ -121,7 +121,8 @@ def _improvement_2d(front: np.ndarray, points: np.ndarray, reference: np.ndarray
 def choose(prediction: Prediction, front: np.ndarray, reference: np.ndarray | None, batch: int, exploration: float,
            failure_limit: float, X: np.ndarray, evaluated: np.ndarray,
            confirm: Callable[[int], bool] = lambda i: True,
-           boundary: np.ndarray | None = None, until_feasible: str = "optimistic") -> tuple[np.ndarray, list[str]]:
+           boundary: np.ndarray | None = None, until_feasible: str = "optimistic",
+           condition: Callable[[int], tuple[np.ndarray, np.ndarray]] | None = None) -> tuple[np.ndarray, list[str]]:
     """Indices into the pool (rows of ``X``, scaled to the unit box) and their roles (module docstring).
 
     front: ``(k, m)`` minimised objectives of the run's feasible non-dominated designs; reference: the
@@ -131,18 +132,20 @@ def choose(prediction: Prediction, front: np.ndarray, reference: np.ndarray | No
     boundary: ``(n,)`` bool, the rows that are boundary candidates (only the boundary share takes them);
     until_feasible: ``probability``: while the run has no feasible design and has modelled constraints, the
     exploration share takes the candidates most likely to meet every constraint and not fail
-    (:func:`feasibility_probability`) instead of those with the most optimistic objectives."""
+    (:func:`feasibility_probability`) instead of those with the most optimistic objectives; condition: the
+    models taken as observed at a chosen row's predicted values, returning the factors by which every row's
+    objective and constraint standard deviations have shrunk since the first choice
+    (:meth:`~optimizer.campaign.surrogate.BatchConditioning.condition`); None: only the front believes the
+    chosen designs' predictions."""
     n = len(X)
     if n == 0:
         return np.zeros(0, int), []
     lo, hi = _normalisation(front, prediction.mean, reference)
     mean = (prediction.mean - lo) / (hi - lo)
-    optimistic = (prediction.mean - KAPPA * prediction.std - lo) / (hi - lo)
     believed = (front - lo) / (hi - lo) if len(front) else np.zeros((0, mean.shape[1]))
     reference = np.ones(mean.shape[1])
     safe = prediction.p_fail <= failure_limit
     feasible = _predicted_feasible(prediction, failure_limit)
-    hopeful = safe & np.all(prediction.g_mean - KAPPA * prediction.g_std <= 0.0, axis=1)
     available = ~_near(X, evaluated)
     boundary = np.zeros(n, bool) if boundary is None else boundary
     chosen: list[int] = []
@@ -150,15 +153,23 @@ def choose(prediction: Prediction, front: np.ndarray, reference: np.ndarray | No
     n_explore = int(round(exploration * batch))
     n_boundary = int(round(BOUNDARY * batch)) if boundary.any() else 0
     seeking = _seeking_feasibility(until_feasible, front, prediction)
-    if seeking:
-        hopeful = safe
-        chance = feasibility_probability(prediction)
-    for role, points, allowed, slots in (("boundary", mean, safe & boundary, n_boundary),
-                                         ("exploit", mean, feasible & ~boundary, None),
-                                         ("explore", optimistic, hopeful & ~boundary, n_explore)):
+
+    def exploration_view(std: np.ndarray, g_std: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+        """What the exploration share ranks by, for the models' standard deviations: the optimistic
+        points, the candidates it may take, and (while seeking feasibility) their chance of feasibility."""
+        optimistic = (prediction.mean - KAPPA * std - lo) / (hi - lo)
+        if seeking:
+            sure = Prediction(prediction.mean, std, prediction.g_mean, g_std, prediction.p_fail)
+            return optimistic, safe, feasibility_probability(sure)
+        return optimistic, safe & np.all(prediction.g_mean - KAPPA * g_std <= 0.0, axis=1), None
+
+    optimistic, hopeful, chance = exploration_view(prediction.std, prediction.g_std)
+    for role, slots in (("boundary", n_boundary), ("exploit", None), ("explore", n_explore)):
         slots = batch - n_explore - len(chosen) if slots is None else slots
         taken = 0
         while taken < slots:
+            points, allowed = {"boundary": (mean, safe & boundary), "exploit": (mean, feasible & ~boundary),
+                               "explore": (optimistic, hopeful & ~boundary)}[role]
             candidates = np.flatnonzero(available & allowed)
             if len(candidates) == 0:
                 break
@@ -177,6 +188,9 @@ def choose(prediction: Prediction, front: np.ndarray, reference: np.ndarray | No
             roles.append(role)
             believed = np.vstack([believed, mean[pick]])
             available &= ~_near(X, X[pick][None])
+            if condition is not None:           # the models believe it too: less uncertainty near it
+                shrink, g_shrink = condition(pick)
+                optimistic, hopeful, chance = exploration_view(prediction.std * shrink, prediction.g_std * g_shrink)
     # empty slots: NSGA-II's order on the predictions (constrained non-dominated rank; within the best rank
     # left, the candidate farthest from every design chosen or evaluated)
     rank = _predicted_rank(prediction, failure_limit)
@@ -302,7 +316,8 @@ def _on_models(problem, models: Models, failure_limit: float, feasible: Callable
 def propose(problem, models: Models, population_X: np.ndarray, *, batch: int, pool: int, exploration: float,
             failure_limit: float, front: np.ndarray, reference: np.ndarray | None, evaluated_X: np.ndarray, seed: int,
             crossover, mutation, population_size: int, boundary_X: np.ndarray | None = None,
-            coordinate_search: bool = False, until_feasible: str = "optimistic", front_ends: bool = False) -> Proposal:
+            coordinate_search: bool = False, until_feasible: str = "optimistic", front_ends: bool = False,
+            condition_on_batch: bool = False) -> Proposal:
     """The batch of one surrogate-assisted generation (module docstring).
 
     problem: the :class:`CampaignProblem`; models: fitted on the store; population_X: the campaign's
@@ -314,7 +329,10 @@ def propose(problem, models: Models, population_X: np.ndarray, *, batch: int, po
     and the full check like every other candidate; coordinate_search: add the inner search's best designs,
     moved by :func:`search_coordinates` on the models, to the pool; until_feasible: what exploration aims at
     while the run has no feasible design (:func:`choose`, :func:`search_coordinates`); front_ends: the
-    coordinate search also moves the ends of the predicted front outwards (:func:`search_coordinates`)."""
+    coordinate search also moves the ends of the predicted front outwards (:func:`search_coordinates`);
+    condition_on_batch: the choice conditions the regressions on each design it takes
+    (:class:`~optimizer.campaign.surrogate.BatchConditioning`), so that later designs of the batch are
+    ranked by models that already expect it."""
     from pymoo.algorithms.moo.nsga2 import NSGA2
     from pymoo.operators.crossover.sbx import SBX
     from pymoo.operators.mutation.pm import PM
@@ -364,7 +382,8 @@ def propose(problem, models: Models, population_X: np.ndarray, *, batch: int, po
 
     index, roles = choose(prediction, front, reference, batch, exploration, failure_limit, scaled,
                           models.scale(evaluated_X) if len(evaluated_X) else np.zeros((0, problem.n_var)), confirm,
-                          boundary, until_feasible)
+                          boundary, until_feasible,
+                          BatchConditioning(models, pool_X).condition if condition_on_batch else None)
     chosen = Prediction(*(getattr(prediction, f)[index] for f in ("mean", "std", "g_mean", "g_std", "p_fail")))
     drawn = inner.drawn + (len(boundary_X) if boundary_X is not None else 0)
     return Proposal(pool_X[index], roles, chosen, drawn, len(pool_X), checks["checked"], checks["rejected"],

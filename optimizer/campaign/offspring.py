@@ -167,7 +167,8 @@ class SurrogateOffspring(PlainOffspring):
                                    crossover=a.crossover, mutation=a.mutation, population_size=a.population,
                                    boundary_X=boundary_X, coordinate_search=a.surrogate.coordinate_search,
                                    until_feasible=a.surrogate.until_feasible,
-                                   front_ends=a.surrogate.front_ends)
+                                   front_ends=a.surrogate.front_ends,
+                                   condition_on_batch=a.surrogate.condition_on_batch)
             fitted.append(models)
             proposals.append(proposal)
             taken = np.vstack([taken, proposal.X]) if len(proposal.X) else taken

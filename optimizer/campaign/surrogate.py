@@ -277,3 +277,52 @@ class Models:
         else:
             p_fail = self._classifier.predict_proba(X)[:, 1]
         return Prediction(mean, std, g_mean, g_std, p_fail)
+
+
+class BatchConditioning:
+    """The regressions' uncertainty over a pool of designs as the designs of one batch are chosen, each
+    taken as observed at its predicted mean (the Kriging believer).
+
+    With the hyperparameters fixed, a Gaussian process conditioned on an observation equal to its own
+    prediction keeps its mean everywhere; only its covariance changes, by a rank-one update per design
+    (Desautels, Krause & Burdick's GP-BUCB hallucination). So nothing is refitted: each chosen design
+    adds one column of posterior covariance with the pool, and the pool's standard deviations shrink near
+    it. The classifier of failure is not conditioned.
+
+    models: fitted :class:`Models`; X: ``(n, d)`` the pool, problem units."""
+
+    def __init__(self, models: Models, X: np.ndarray):
+        from scipy.linalg import solve_triangular
+
+        Xs = models.scale(np.atleast_2d(X))
+        self._labels = (models.objectives, models.constraints)
+        self._gps = {}
+        for label in (*models.objectives, *models.constraints):
+            regressor = models._regressors[label]
+            gp = regressor._gp if isinstance(regressor, _Conditioned) else regressor
+            V = solve_triangular(gp.L_, gp.kernel_(gp.X_train_, Xs), lower=True, check_finite=False)
+            variance = np.maximum(gp.kernel_.diag(Xs) - np.einsum("ij,ij->j", V, V), 1e-300)
+            # standardised units throughout: only the ratio of new to old variance leaves this class
+            self._gps[label] = {"gp": gp, "V": V, "prior": variance, "now": variance.copy(), "columns": []}
+        self._X = Xs
+
+    def condition(self, i: int) -> tuple[np.ndarray, np.ndarray]:
+        """Take pool design ``i`` as observed at its predicted mean. Returns the factors ``(n, m)`` and
+        ``(n, k)`` by which the objectives' and the constraints' standard deviations of the pool have shrunk
+        since the first design (1: unchanged)."""
+        for model in self._gps.values():
+            gp, V = model["gp"], model["V"]
+            # the latent covariance of every pool design with design i, less what earlier designs explain
+            column = gp.kernel_(self._X, self._X[i:i + 1])[:, 0] - V.T @ V[:, i]
+            for earlier in model["columns"]:
+                column -= earlier * earlier[i]
+            # the observation's variance: the latent variance at i plus the fitted noise (the kernel's diag)
+            column /= np.sqrt(max(model["now"][i], 1e-300))
+            model["columns"].append(column)
+            model["now"] = np.maximum(model["now"] - column ** 2, 0.0)
+        return tuple(self._ratio(labels) for labels in self._labels)
+
+    def _ratio(self, labels) -> np.ndarray:
+        if not labels:
+            return np.ones((len(self._X), 0))
+        return np.column_stack([np.sqrt(self._gps[k]["now"] / self._gps[k]["prior"]) for k in labels])

@@ -14,7 +14,7 @@ from optimizer.campaign.infill import boundary_midpoints, choose, hypervolume_im
 from optimizer.campaign.offspring import FeasibleOffspring, portfolio
 from optimizer.campaign.progress import format_status, search_text, status_of
 from optimizer.campaign.store import STORE_NAME, Store, non_dominated
-from optimizer.campaign.surrogate import Models, Prediction, TrainingData
+from optimizer.campaign.surrogate import BatchConditioning, Models, Prediction, TrainingData
 
 
 def campaign(tmp_path, text: str, *overrides):
@@ -158,6 +158,31 @@ def test_models_fitted_side_by_side_are_those_fitted_one_after_another(monkeypat
     assert list(side_by_side.theta()) == ["a", "b", "g", "failure"]
 
 
+@pytest.mark.parametrize("kernel", ["product", "warped"])
+def test_conditioning_on_chosen_designs_is_the_gaussian_posterior_given_them(kernel):
+    """Each chosen design taken as observed (with the fitted noise) at its predicted value: the pool's
+    variances are the Schur complement of the joint posterior covariance, for one design and for two."""
+    rng = np.random.default_rng(5)
+    X = rng.random((40, 3))
+    F = np.column_stack([np.sin(4 * X[:, 0]) + X[:, 1], (X ** 2).sum(axis=1)])
+    G = X[:, 2:] - 0.5
+    data = TrainingData(X, np.zeros(40, bool), F, G, np.zeros(40), np.arange(40.0))
+    models = Models(np.zeros(3), np.ones(3), ["a", "b"], ["g"], kernel=kernel).fit(data, cap=40)
+    pool = rng.random((30, 3))
+    conditioning = BatchConditioning(models, pool)
+    for chosen in ([7], [7, 19]):
+        shrink, g_shrink = conditioning.condition(chosen[-1])
+        for label, factor in (("a", shrink[:, 0]), ("b", shrink[:, 1]), ("g", g_shrink[:, 0])):
+            gp = models._regressors[label]
+            _, cov = gp.predict(pool, return_cov=True)          # the noise on its diagonal
+            rest = np.setdiff1d(np.arange(30), chosen)
+            C, c = cov[np.ix_(rest, rest)], cov[np.ix_(rest, chosen)]
+            conditioned = np.diag(C) - np.einsum("ij,ij->i", c @ np.linalg.inv(cov[np.ix_(chosen, chosen)]), c)
+            # the fitted variances dwarf the posterior ones: both sides lose digits to cancellation
+            np.testing.assert_allclose(factor[rest], np.sqrt(conditioned / np.diag(C)), rtol=1e-3)
+    assert np.all(shrink <= 1.0) and shrink[7].max() < 0.5
+
+
 # ------------------------------------------------------------------------------------------ choice
 def _prediction(mean, std=None, p_fail=None):
     mean = np.asarray(mean, float)
@@ -184,6 +209,30 @@ def test_exploration_takes_the_uncertain_designs():
     index, roles = choose(_prediction(mean, std), front=np.array([[0.6, 0.6]]), reference=np.array([1.1, 1.1]),
                           batch=2, exploration=0.5, failure_limit=0.5, X=X, evaluated=np.zeros((0, 1)))
     assert list(index) == [3, 1] and roles == ["exploit", "explore"]
+
+
+def test_a_batch_conditioned_on_its_choices_explores_distinct_designs():
+    """A cluster of five near-identical designs whose f2 the models know little of, and one design apart,
+    a little less uncertain. Without conditioning both exploration designs come from the cluster (the
+    believed mean of the first takes nothing from its neighbour's optimistic point); conditioned on the
+    first, the cluster's uncertainty is gone and the second is the design apart."""
+    X = np.r_[0.5 + 1e-3 * np.arange(5), 0.2][:, None]
+    mean = [[0.5, 0.8]] * 5 + [[0.2, 0.8]]
+    std = [[0.0, 0.5]] * 5 + [[0.0, 0.2]]
+    front = np.array([[0.1, 0.95], [0.9, 0.15]])
+
+    def condition(i):                     # as BatchConditioning does: no uncertainty left near design i
+        shrink = np.where(np.abs(X - X[i]) < 0.01, 0.0, 1.0)
+        return np.column_stack([shrink, shrink]), np.ones((6, 0))
+
+    def explored(condition):
+        index, roles = choose(_prediction(mean, std), front=front, reference=np.array([1.1, 1.1]), batch=2,
+                              exploration=1.0, failure_limit=0.5, X=X, evaluated=np.zeros((0, 1)), condition=condition)
+        assert roles == ["explore", "explore"]
+        return set(index)
+
+    assert explored(None) <= {0, 1, 2, 3, 4}
+    assert 5 in explored(condition)
 
 
 def test_a_front_beyond_the_reference_point_can_still_be_improved():
@@ -491,6 +540,7 @@ def test_plain_generations_record_their_draws(tmp_path):
     ("algorithm.surrogate.front_ends=true", r"'algorithm.surrogate.front_ends' = true moves the front's ends .* "
                                             r"algorithm.surrogate.coordinate_search is false"),
     ("algorithm.surrogate.front_ends=often", r"algorithm.surrogate.front_ends"),
+    ("algorithm.surrogate.condition_on_batch=often", r"algorithm.surrogate.condition_on_batch"),
     ("algorithm.surrogate.kappa=2", r"unknown key 'algorithm.surrogate.kappa'; allowed: pool, exploration"),
 ])
 def test_bad_surrogate_settings_name_the_key(tmp_path, override, message):
