@@ -30,7 +30,11 @@ The rule (the reasoning and its evidence: ``docs/decisions/0017-surrogate-infill
 4. **Exploration** (``exploration·batch``): the same greedy step on the *optimistic* point
    ``mean − κ·std`` (κ = 2): designs whose uncertainty could put them on the front, which is where the
    models learn most. With ``until_feasible: probability``, while no evaluated design meets every
-   constraint, the designs most likely to meet them instead (:func:`feasibility_probability`).
+   constraint, the designs most likely to meet them instead (:func:`feasibility_probability`). The
+   believer step alone leaves a chosen design's neighbours as optimistic as before, so the share can
+   spend several slots on one bet; with ``condition_on_batch`` the models believe every chosen design too
+   (:class:`~optimizer.campaign.surrogate.BatchConditioning`): their uncertainty shrinks near it, and so
+   do its neighbours' optimism and chance.
 5. Slots still empty (nothing is predicted to improve the front) follow NSGA-II's order on the
    predictions: the best constrained non-dominated rank first, within it the candidate farthest from every
    design chosen or evaluated, so a generation always sends a full batch and still moves towards the
