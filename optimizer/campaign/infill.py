@@ -387,7 +387,7 @@ def propose(problem, models: Models, population_X: np.ndarray, *, batch: int, po
     index, roles = choose(prediction, front, reference, batch, exploration, failure_limit, scaled,
                           models.scale(evaluated_X) if len(evaluated_X) else np.zeros((0, problem.n_var)), confirm,
                           boundary, until_feasible,
-                          BatchConditioning(models, pool_X).condition if condition_on_batch else None)
+                          BatchConditioning(models, pool_X).condition if condition_on_batch and len(pool_X) else None)
     chosen = Prediction(*(getattr(prediction, f)[index] for f in ("mean", "std", "g_mean", "g_std", "p_fail")))
     drawn = inner.drawn + (len(boundary_X) if boundary_X is not None else 0)
     return Proposal(pool_X[index], roles, chosen, drawn, len(pool_X), checks["checked"], checks["rejected"],
