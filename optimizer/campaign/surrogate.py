@@ -155,10 +155,10 @@ class _Conditioned:
 
         self.kernel_ = kernel
         self._mean, self._scale = float(np.mean(y_fitted)), float(np.std(y_fitted)) or 1.0
-        self._gp = GaussianProcessRegressor(kernel, optimizer=None).fit(X, (y - self._mean) / self._scale)
+        self.gp = GaussianProcessRegressor(kernel, optimizer=None).fit(X, (y - self._mean) / self._scale)
 
     def predict(self, X: np.ndarray, return_std: bool = False):
-        mean, std = self._gp.predict(X, return_std=True)
+        mean, std = self.gp.predict(X, return_std=True)
         mean = mean * self._scale + self._mean
         return (mean, std * self._scale) if return_std else mean
 
@@ -256,6 +256,12 @@ class Models:
             out["failure"] = [float(v) for v in self._classifier.kernel_.theta]
         return out
 
+    def gaussian_process(self, label: str):
+        """The fitted scikit-learn regressor of objective or constraint ``label``, on the unit box of
+        :meth:`scale` and in standardised values."""
+        regressor = self._regressors[label]
+        return regressor.gp if isinstance(regressor, _Conditioned) else regressor
+
     # --------------------------------------------------------------------------------------- predict
     def predict(self, X: np.ndarray) -> Prediction:
         X = self.scale(np.atleast_2d(X))
@@ -298,8 +304,7 @@ class BatchConditioning:
         self._labels = (models.objectives, models.constraints)
         self._gps = {}
         for label in (*models.objectives, *models.constraints):
-            regressor = models._regressors[label]
-            gp = regressor._gp if isinstance(regressor, _Conditioned) else regressor
+            gp = models.gaussian_process(label)
             V = solve_triangular(gp.L_, gp.kernel_(gp.X_train_, Xs), lower=True, check_finite=False)
             variance = np.maximum(gp.kernel_.diag(Xs) - np.einsum("ij,ij->j", V, V), 1e-300)
             # standardised units throughout: only the ratio of new to old variance leaves this class

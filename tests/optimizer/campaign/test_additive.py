@@ -152,7 +152,7 @@ def test_a_warped_model_learns_wells_in_the_corner_of_each_range():
         error[kernel] = np.sqrt(np.mean((models.predict(test).mean[:, 0] - wells(test)) ** 2))
     assert abs(minimum["warped"]) < 0.3 and minimum["additive"] > 1.0
     assert error["warped"] < 0.05 and error["additive"] > 0.2
-    assert np.all(np.asarray(models._regressors["w"].kernel_.k1.k2.warping_a) > 1.0)
+    assert np.all(np.asarray(models.gaussian_process("w").kernel_.k1.k2.warping_a) > 1.0)
 
 
 def test_a_smaller_warping_prior_variance_keeps_the_warping_nearer_the_identity():
@@ -174,7 +174,7 @@ def test_a_smaller_warping_prior_variance_keeps_the_warping_nearer_the_identity(
     log_a = {}
     for variance in (0.01, 2.0):
         models = Models(np.zeros(d), np.ones(d), ["w"], [], kernel="warped", warp_prior_variance=variance)
-        warping = models.fit(data, cap=len(X))._regressors["w"].kernel_.k1.k2
+        warping = models.fit(data, cap=len(X)).gaussian_process("w").kernel_.k1.k2
         log_a[variance] = np.log(warping.warping_a)
     assert np.all(np.abs(log_a[0.01]) < 1.0)
     assert np.all(log_a[2.0] > 2.0)

@@ -173,7 +173,7 @@ def test_conditioning_on_chosen_designs_is_the_gaussian_posterior_given_them(ker
     for chosen in ([7], [7, 19]):
         shrink, g_shrink = conditioning.condition(chosen[-1])
         for label, factor in (("a", shrink[:, 0]), ("b", shrink[:, 1]), ("g", g_shrink[:, 0])):
-            gp = models._regressors[label]
+            gp = models.gaussian_process(label)
             _, cov = gp.predict(pool, return_cov=True)          # the noise on its diagonal
             rest = np.setdiff1d(np.arange(30), chosen)
             C, c = cov[np.ix_(rest, rest)], cov[np.ix_(rest, chosen)]
