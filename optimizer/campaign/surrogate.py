@@ -258,7 +258,9 @@ class Models:
 
     def gaussian_process(self, label: str):
         """The fitted scikit-learn regressor of objective or constraint ``label``, on the unit box of
-        :meth:`scale` and in standardised values."""
+        :meth:`scale`. Its kernel and Cholesky factor (``kernel_``, ``L_``) are in standardised values; its
+        own ``predict`` may not be in the objective's unit (use :meth:`predict` for that), so compare
+        ratios of its variances, not its values."""
         regressor = self._regressors[label]
         return regressor.gp if isinstance(regressor, _Conditioned) else regressor
 
