@@ -6,9 +6,10 @@ mesh.level=coarse``, the project's 1 % oscillation limit (``convergence.max_ampl
 method and seed set on the command line, run with ``millfoil run`` in its own
 directory under ``--out``; a run that was interrupted is continued with ``millfoil resume``, a finished one
 is left alone, so the benchmark can span sessions (commit the stores). Runs go one after another, each on
-the machine's workers (``execution:`` of the case, ``--workers`` to override). ``--kernel`` and
-``--coordinate-search`` choose another surrogate rule; its runs are named after it
-(``surrogate-warped-coordinate-N``) beside the default rule's, and the report sums up each rule apart.
+the machine's workers (``execution:`` of the case, ``--workers`` to override). ``--kernel``,
+``--coordinate-search`` and the other rule options choose the surrogate rule (the schema's defaults
+without them); its runs are named after it (``surrogate-warped-coordinate-N``, ``surrogate-N`` for the
+product kernel without options), and the report sums up each rule apart.
 
 Figure: for each case, the hypervolume of every feasible design stored so far against CFD evaluations
 (failed ones included) — the report's convergence curves (:func:`optimizer.report.analysis.convergence`),
@@ -44,15 +45,16 @@ PLAIN_BUDGET, SURROGATE_BUDGET = 5000, 1000
 
 from optimizer.campaign.config import SurrogateSettings  # noqa: E402 (after the path above)
 
-#: The schema's defaults: a rule is named for the settings that differ from them.
+#: The schema's defaults: a rule's runs set the settings that differ from them.
 SCHEMA = SurrogateSettings()
 
 
 @dataclass(frozen=True)
 class Rule:
-    """A surrogate rule: the ``algorithm.surrogate`` settings a benchmark runs with, and the name its runs
-    take (``surrogate`` for the schema's defaults, ``surrogate-warped-coordinate-recent50-training250`` and
-    the like for another; ``bench/bench_surrogate.py`` names its runs with it too)."""
+    """A surrogate rule: the ``algorithm.surrogate`` settings a benchmark runs with (the schema's defaults
+    unless the command line says otherwise), and the name its runs take: ``surrogate`` for
+    :data:`NAMING_BASE`, ``surrogate-warped-coordinate-recent50-training250`` and the like for another
+    (``bench/bench_surrogate.py`` names its runs with it too)."""
 
     kernel: str = SCHEMA.kernel
     coordinate_search: bool = SCHEMA.coordinate_search
@@ -68,20 +70,22 @@ class Rule:
     condition_on_batch: bool = SCHEMA.condition_on_batch
 
     def name(self) -> str:
-        d = SCHEMA
-        return "-".join(["surrogate", *([self.kernel] if self.kernel != d.kernel else []),
-                         *(["coordinate"] if self.coordinate_search else []),
-                         *([f"recent{self.recent}"] if self.recent else []),
-                         *([f"share{self.recent_share:g}"] if self.recent_share != d.recent_share else []),
-                         *([f"initial{self.initial}"] if self.initial else []),
-                         *([f"training{self.training}"] if self.training != d.training else []),
-                         *([f"exploration{self.exploration:g}"] if self.exploration != d.exploration else []),
+        """The run name: ``surrogate`` and a part for each setting that differs from :data:`NAMING_BASE`."""
+        b = NAMING_BASE
+        return "-".join(["surrogate", *([self.kernel] if self.kernel != b.kernel else []),
+                         *(["coordinate"] if self.coordinate_search != b.coordinate_search else []),
+                         *([f"recent{self.recent}"] if self.recent != b.recent else []),
+                         *([f"share{self.recent_share:g}"] if self.recent_share != b.recent_share else []),
+                         *([f"initial{self.initial}"] if self.initial != b.initial else []),
+                         *([f"training{self.training}"] if self.training != b.training else []),
+                         *([f"exploration{self.exploration:g}"] if self.exploration != b.exploration else []),
                          *([f"prior{self.warp_prior_variance:g}"]
-                           if self.warp_prior_variance != d.warp_prior_variance else []),
-                         *([f"hyper{self.hyperparameter_initial}"] if self.hyperparameter_initial else []),
-                         *([f"until{self.until_feasible}"] if self.until_feasible != d.until_feasible else []),
-                         *(["ends"] if self.front_ends else []),
-                         *(["conditioned"] if self.condition_on_batch else [])])
+                           if self.warp_prior_variance != b.warp_prior_variance else []),
+                         *([f"hyper{self.hyperparameter_initial}"]
+                           if self.hyperparameter_initial != b.hyperparameter_initial else []),
+                         *([f"until{self.until_feasible}"] if self.until_feasible != b.until_feasible else []),
+                         *(["ends"] if self.front_ends != b.front_ends else []),
+                         *(["conditioned"] if self.condition_on_batch != b.condition_on_batch else [])])
 
     def settings(self) -> dict:
         """The ``algorithm.surrogate`` keys whose values are not the schema's defaults."""
@@ -93,37 +97,41 @@ class Rule:
                 for k, v in self.settings().items()]
 
 
+#: The rule the kept runs named ``surrogate-N`` were made with (the product kernel and none of the options).
+#: Names are read against it, not against the schema's defaults, so that a run's name keeps saying what
+#: it ran when a default changes.
+NAMING_BASE = Rule(kernel="product", coordinate_search=False, recent=0, recent_share=1.0, initial=0, training=200,
+                   exploration=0.25, warp_prior_variance=2.0, hyperparameter_initial=0, until_feasible="optimistic",
+                   front_ends=False, condition_on_batch=False)
+
+
 def add_rule_arguments(parser: argparse.ArgumentParser) -> None:
-    """The command-line options that choose a :class:`Rule`."""
+    """The command-line options that choose a :class:`Rule`: each defaults to the schema's default, and each
+    setting that differs from :data:`NAMING_BASE` adds its part to the runs' name (in brackets)."""
     from optimizer.campaign.config import KERNELS, UNTIL_FEASIBLE
 
     d = Rule()
-    parser.add_argument("--kernel", choices=KERNELS, default=d.kernel,
-                        help="algorithm.surrogate.kernel (runs named surrogate-KERNEL-N when not the default)")
-    parser.add_argument("--coordinate-search", action="store_true",
-                        help="algorithm.surrogate.coordinate_search (runs named surrogate[-KERNEL]-coordinate-N)")
-    parser.add_argument("--recent", type=int, default=d.recent,
-                        help="algorithm.surrogate.recent (runs named surrogate[-KERNEL][-coordinate]-recentR-N)")
+    flag = argparse.BooleanOptionalAction
+    parser.add_argument("--kernel", choices=KERNELS, default=d.kernel, help="algorithm.surrogate.kernel (KERNEL)")
+    parser.add_argument("--coordinate-search", action=flag, default=d.coordinate_search,
+                        help="algorithm.surrogate.coordinate_search (coordinate)")
+    parser.add_argument("--recent", type=int, default=d.recent, help="algorithm.surrogate.recent (recentR)")
     parser.add_argument("--recent-share", type=float, default=d.recent_share,
-                        help="algorithm.surrogate.recent_share (runs named ...-recentR-shareS-N when not the default)")
-    parser.add_argument("--initial", type=int, default=d.initial,
-                        help="algorithm.surrogate.initial (runs named ...-initialI-N)")
-    parser.add_argument("--training", type=int, default=d.training,
-                        help="algorithm.surrogate.training (runs named ...-trainingT-N when not the default)")
+                        help="algorithm.surrogate.recent_share (shareS)")
+    parser.add_argument("--initial", type=int, default=d.initial, help="algorithm.surrogate.initial (initialI)")
+    parser.add_argument("--training", type=int, default=d.training, help="algorithm.surrogate.training (trainingT)")
     parser.add_argument("--exploration", type=float, default=d.exploration,
-                        help="algorithm.surrogate.exploration (runs named ...-explorationE-N when not the default)")
+                        help="algorithm.surrogate.exploration (explorationE)")
     parser.add_argument("--warp-prior-variance", type=float, default=d.warp_prior_variance,
-                        help="algorithm.surrogate.warp_prior_variance, with --kernel warped (runs named ...-priorV-N "
-                             "when not the default)")
+                        help="algorithm.surrogate.warp_prior_variance, with --kernel warped (priorV)")
     parser.add_argument("--hyperparameter-initial", type=int, default=d.hyperparameter_initial,
-                        help="algorithm.surrogate.hyperparameter_initial (runs named ...-hyperH-N)")
+                        help="algorithm.surrogate.hyperparameter_initial (hyperH)")
     parser.add_argument("--until-feasible", choices=UNTIL_FEASIBLE, default=d.until_feasible,
-                        help="algorithm.surrogate.until_feasible (runs named ...-untilprobability-N when not the "
-                             "default)")
-    parser.add_argument("--front-ends", action="store_true",
-                        help="algorithm.surrogate.front_ends, with --coordinate-search (runs named ...-ends-N)")
-    parser.add_argument("--condition-on-batch", action="store_true",
-                        help="algorithm.surrogate.condition_on_batch (runs named ...-conditioned-N)")
+                        help="algorithm.surrogate.until_feasible (untilU)")
+    parser.add_argument("--front-ends", action=flag, default=d.front_ends,
+                        help="algorithm.surrogate.front_ends, with --coordinate-search (ends)")
+    parser.add_argument("--condition-on-batch", action=flag, default=d.condition_on_batch,
+                        help="algorithm.surrogate.condition_on_batch (conditioned)")
 
 
 def rule_from(args: argparse.Namespace) -> Rule:
