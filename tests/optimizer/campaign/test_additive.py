@@ -28,6 +28,17 @@ def test_the_kernel_is_the_sum_of_one_column_matern_kernels():
     assert kernel.diag(X) == pytest.approx(np.diag(kernel(X)))
 
 
+def test_a_pool_larger_than_a_block_gets_every_row():
+    """k(X, Y) is computed a block of rows of X at a time: a pool of many blocks, the last one short, has
+    the same values as one row at a time."""
+    rng = np.random.default_rng(2)
+    X, Y = rng.random((1001, 3)), rng.random((400, 3))
+    kernel = AdditiveMatern(VARIANCES, LENGTHS)
+    K = kernel(X, Y)
+    assert K.shape == (1001, 400)
+    assert np.array_equal(K, np.vstack([kernel(x[None, :], Y) for x in X]))
+
+
 def test_the_gradient_is_the_derivative_in_the_log_hyperparameters():
     X = np.random.default_rng(1).random((6, 3))
     kernel = AdditiveMatern(VARIANCES, LENGTHS)
