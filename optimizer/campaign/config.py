@@ -198,7 +198,7 @@ class SurrogateSettings(Section):
                           "on (a Gaussian process costs O(n³)): those nearest the front")
     failure_limit: float = Field(0.5, gt=0, le=1, description="candidates whose predicted probability of failing "
                                  "(no mesh, diverged, unsettled, timeout) is above this are not sent")
-    kernel: Literal[KERNELS] = Field("product", description="the Gaussian processes' kernel. product: constant × "
+    kernel: Literal[KERNELS] = Field("warped", description="the Gaussian processes' kernel. product: constant × "
                                      "Matérn 5/2 with a length scale per design variable, plus noise; additive: "
                                      "the same plus a Matérn 5/2 term per variable (one-variable effects), which "
                                      "ranks many-variable problems better; warped: the additive terms on each "
@@ -222,24 +222,25 @@ class SurrogateSettings(Section):
                                         "spread over the box), the rest by rank; the models then predict from "
                                         "the usual training set with them; 0: both from the usual set "
                                         "(decision 0017)")
-    coordinate_search: bool = Field(False, description="also move the best designs of the search on the models "
+    coordinate_search: bool = Field(True, description="also move the best designs of the search on the models "
                                     "one variable at a time over its whole range, to the best predicted value "
                                     "(crosses the barriers between a variable's basins that NSGA-II's steps "
-                                    "rarely cross; pays with the additive kernel, decision 0017)")
-    warp_prior_variance: float = Field(2.0, gt=0, le=100, description="with kernel: warped, the variance of the "
+                                    "rarely cross; pays with the additive and warped kernels, decision 0017)")
+    warp_prior_variance: float = Field(1.0, gt=0, le=100, description="with kernel: warped, the variance of the "
                                        "normal prior on the logarithms of the warping exponents (a log-normal "
                                        "prior of median 1, no warping): smaller keeps the maps nearer the "
                                        "identity, larger lets the fit take steep ones (decision 0017)")
-    until_feasible: Literal[UNTIL_FEASIBLE] = Field("optimistic", description="what the exploration share (and the "
+    until_feasible: Literal[UNTIL_FEASIBLE] = Field("probability", description="what the exploration share (and the "
                                                     "optimistic half of the coordinate search) aims at while no "
                                                     "evaluated design meets every CFD constraint. optimistic: the "
                                                     "optimistic objectives and constraints (mean − 2 std), as "
                                                     "afterwards; probability: the models' probability that a design "
                                                     "meets every constraint and does not fail (decision 0017)")
-    front_ends: bool = Field(False, description="with coordinate_search, also move the designs predicted best in "
+    front_ends: bool = Field(True, description="with coordinate_search, also move the designs predicted best in "
                              "each objective to minimise that objective alone (on the mean and on the optimistic "
-                             "predictions), so that the search extends the front beyond its ends (decision 0017)")
-    condition_on_batch: bool = Field(False, description="the batch's choice also takes each design it has chosen "
+                             "predictions), so that the search extends the front beyond its ends; without "
+                             "coordinate_search it changes nothing (decision 0017)")
+    condition_on_batch: bool = Field(True, description="the batch's choice also takes each design it has chosen "
                                      "as observed at its predicted values in the models, so that their uncertainty "
                                      "shrinks near it and the exploration share spreads over distinct designs "
                                      "(exact for a Gaussian process with its hyperparameters fixed); false: only "
@@ -483,11 +484,6 @@ def check_campaign(config: CampaignConfig, source: Any) -> CampaignConfig:
                           f"{s.warp_prior_variance:g} sets the prior of the warped kernel's exponents, but "
                           f"algorithm.surrogate.kernel is {s.kernel!r}; allowed: kernel 'warped', or the default "
                           "variance")
-    if s.front_ends and not s.coordinate_search:
-        path = ("algorithm", "surrogate", "front_ends")
-        raise ConfigError(f"{source.where(path)}: 'algorithm.surrogate.front_ends' = true moves the front's ends "
-                          "by the coordinate search, but algorithm.surrogate.coordinate_search is false; allowed: "
-                          "front_ends false (the default) or coordinate_search true")
     return config
 
 

@@ -245,6 +245,7 @@ def saved_config(text: str, execution: dict | None = None, overrides: Sequence[s
     if not isinstance(data, dict):
         raise ConfigError(f"the stored campaign configuration is a YAML {type(data).__name__}, not a mapping of "
                           "sections: the store is damaged")
+    _with_earlier_defaults(data)
     if not execution and not overrides:
         try:
             return CampaignConfig.model_validate(data)
@@ -259,6 +260,28 @@ def saved_config(text: str, execution: dict | None = None, overrides: Sequence[s
                               "campaign is fixed by its store)")
     values = {f"execution.{key}": value for key, value in (execution or {}).items()}
     return CampaignConfig.from_mapping(data, overrides, values=values, source=Source("the saved campaign"))
+
+
+#: Settings whose default has changed, with the value a stored configuration that lacks the key ran with.
+#: A store keeps its campaign's resolved configuration, every key written out, so a key is absent only from a
+#: store written before the key existed, whose campaign ran as the key's first default says.
+EARLIER_DEFAULTS = {("algorithm", "surrogate", "kernel"): "product",
+                    ("algorithm", "surrogate", "coordinate_search"): False,
+                    ("algorithm", "surrogate", "warp_prior_variance"): 2.0,
+                    ("algorithm", "surrogate", "until_feasible"): "optimistic",
+                    ("algorithm", "surrogate", "front_ends"): False,
+                    ("algorithm", "surrogate", "condition_on_batch"): False}
+
+
+def _with_earlier_defaults(data: dict) -> None:
+    """Fill the keys of :data:`EARLIER_DEFAULTS` that a stored configuration lacks, in place, so that a resumed
+    campaign goes on with the settings it started with (only in sections the configuration has)."""
+    for (*sections, key), value in EARLIER_DEFAULTS.items():
+        section = data
+        for name in sections:
+            section = section.get(name) if isinstance(section, dict) else None
+        if isinstance(section, dict):
+            section.setdefault(key, value)
 
 
 # --------------------------------------------------------------------------------------------- loop

@@ -468,7 +468,7 @@ def test_the_coordinate_search_adds_its_designs_to_the_pool(tmp_path):
     """With ``coordinate_search`` each generation's pool holds the batch's worth of moved designs too, and the
     run still sends full batches."""
     drawn = {}
-    for name, keys in (("plain", "coordinate_search: false"), ("search", "coordinate_search: true"),
+    for name, keys in (("plain", "coordinate_search: false"), ("search", "coordinate_search: true, front_ends: false"),
                        ("ends", "coordinate_search: true, front_ends: true")):
         config = campaign(tmp_path, ZDT1, "algorithm.method=surrogate", "algorithm.generations=3",
                           f"algorithm.surrogate={{pool: 5, training: 40, {keys}}}")
@@ -531,14 +531,12 @@ def test_plain_generations_record_their_draws(tmp_path):
     ("algorithm.surrogate.recent_share=0.5", r"'algorithm.surrogate.recent_share' = 0.5 splits the batch .* "
                                              r"algorithm.surrogate.recent is 0"),
     ("algorithm.surrogate.warp_prior_variance=0", r"algorithm.surrogate.warp_prior_variance"),
-    ("algorithm.surrogate.warp_prior_variance=1.25", r"'algorithm.surrogate.warp_prior_variance' = 1.25 sets the "
-                                                     r"prior .* algorithm.surrogate.kernel is 'product'"),
+    ("algorithm.surrogate.kernel=product algorithm.surrogate.warp_prior_variance=1.25",
+     r"'algorithm.surrogate.warp_prior_variance' = 1.25 sets the prior .* algorithm.surrogate.kernel is 'product'"),
     ("algorithm.surrogate.hyperparameter_initial=201", r"algorithm.surrogate.hyperparameter_initial' = 201 is "
                                                         r"more than algorithm.surrogate.training \(200\)"),
     ("algorithm.surrogate.until_feasible=maybe", r"algorithm.surrogate.until_feasible' = 'maybe' is not allowed; "
                                                  r"allowed: 'optimistic' or 'probability'"),
-    ("algorithm.surrogate.front_ends=true", r"'algorithm.surrogate.front_ends' = true moves the front's ends .* "
-                                            r"algorithm.surrogate.coordinate_search is false"),
     ("algorithm.surrogate.front_ends=often", r"algorithm.surrogate.front_ends"),
     ("algorithm.surrogate.condition_on_batch=often", r"algorithm.surrogate.condition_on_batch"),
     ("algorithm.surrogate.kappa=2", r"unknown key 'algorithm.surrogate.kappa'; allowed: pool, exploration"),
@@ -546,6 +544,31 @@ def test_plain_generations_record_their_draws(tmp_path):
 def test_bad_surrogate_settings_name_the_key(tmp_path, override, message):
     with pytest.raises(ConfigError, match=message):
         campaign(tmp_path, ZDT1, *override.split())
+
+
+def test_front_ends_without_the_coordinate_search_changes_nothing(tmp_path):
+    """``front_ends`` moves designs of the coordinate search, so with it off the key is inert, not an error
+    (it is on by default, and a user who turns the search off need not turn it off too)."""
+    s = campaign(tmp_path, ZDT1, "algorithm.surrogate.coordinate_search=false").algorithm.surrogate
+    assert s.front_ends and not s.coordinate_search
+
+
+def test_a_stored_configuration_without_the_newer_keys_resumes_with_the_rule_it_ran():
+    """A store written before the surrogate's rule keys existed ran the product kernel without the options:
+    resumed, it goes on with that rule, not with today's defaults; a key the store has is kept."""
+    import yaml
+
+    from optimizer.campaign.driver import EARLIER_DEFAULTS, saved_config
+
+    old = yaml.safe_load(ZDT1) | {"algorithm": {"method": "surrogate", "population": 20,
+                                                "surrogate": {"pool": 50, "training": 200}}}
+    s = saved_config(yaml.safe_dump(old)).algorithm.surrogate
+    assert (s.kernel, s.coordinate_search, s.warp_prior_variance, s.until_feasible, s.front_ends,
+            s.condition_on_batch) == ("product", False, 2.0, "optimistic", False, False)
+    assert {key[-1] for key in EARLIER_DEFAULTS} <= set(SurrogateSettings.model_fields)
+    old["algorithm"]["surrogate"]["kernel"] = "additive"
+    assert saved_config(yaml.safe_dump(old)).algorithm.surrogate.kernel == "additive"
+    assert SurrogateSettings().kernel == "warped"
 
 
 def test_the_batch_defaults_to_a_fifth_of_the_population_with_the_surrogate(tmp_path):
