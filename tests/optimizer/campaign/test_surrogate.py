@@ -445,7 +445,9 @@ def test_a_surrogate_campaign_beats_plain_nsga2_at_equal_evaluations(tmp_path):
     assert searched[0]["method"] == "initial"                # the initial population is drawn, not searched
     for search in searched[1:]:
         assert search["method"] == "surrogate" and search["batch"] == 10
-        assert search["drawn"] >= 20 * 10 and search["screened"] == search["drawn"]
+        # screened counts distinct candidates (ZDT1 has no cheap conditions): a coordinate move that keeps
+        # its start repeats a design the pool already has
+        assert search["drawn"] >= 20 * 10 and 0.9 * search["drawn"] <= search["screened"] <= search["drawn"]
         assert set(search["error"]) == {"f1", "f2"} and len(search["predicted"]) == 10
         assert search["seconds"]["fit"] > 0
     status = status_of(tmp_path / "surrogate")
