@@ -133,8 +133,9 @@ def run_check(args: argparse.Namespace) -> int:
           + (f" (amplitude <= {config.convergence.max_amplitude:.2%} of the mean)"
              if config.convergence.oscillating == "accept_below_amplitude" else ""))
     method = "NSGA-II" if a.method == "nsga2" else (
-        f"surrogate-assisted NSGA-II (pool {a.surrogate.pool} per design, exploration {a.surrogate.exploration:.0%}, "
-        f"models on at most {a.surrogate.training} designs)")
+        f"surrogate-assisted NSGA-II ({a.surrogate.kernel} kernel"
+        f"{', coordinate search' if a.surrogate.coordinate_search else ''}, pool {a.surrogate.pool} per design, "
+        f"exploration {a.surrogate.exploration:.0%}, models on at most {a.surrogate.training} designs)")
     print(f"  {method}: population {a.population}, {a.generations} generations, offspring "
           f"{a.batch}, seed {a.seed}: at most {a.population + (a.generations - 1) * a.batch} evaluations")
     print(f"  execution: {config.execution.backend}; run directory {config.output.directory}")

@@ -628,5 +628,5 @@ def test_check_says_how_the_batch_fills_the_workers(tmp_path, capsys):
     path.write_text(ZDT1.replace("backend: inline", "backend: local, workers: 4"))
     assert main(["check", str(path), "--set", "algorithm.method=surrogate", "--set", "algorithm.offspring=6"]) == 0
     out = capsys.readouterr().out
-    assert "surrogate-assisted NSGA-II" in out and "at most 50 evaluations" in out
+    assert "surrogate-assisted NSGA-II (warped kernel, coordinate search," in out and "at most 50 evaluations" in out
     assert "6 offspring on 4 worker(s): 2 round(s) per generation, 2 worker(s) idle in the last" in out
