@@ -32,7 +32,7 @@ import os
 import platform
 import subprocess
 import sys
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, fields, replace
 from pathlib import Path
 
 import numpy as np
@@ -44,6 +44,7 @@ PLAIN_BUDGET, SURROGATE_BUDGET = 5000, 1000
 
 
 from optimizer.campaign.config import SurrogateSettings  # noqa: E402 (after the path above)
+from optimizer.campaign.driver import EARLIER_DEFAULTS  # noqa: E402
 
 #: The schema's defaults: a rule's runs set the settings that differ from them.
 SCHEMA = SurrogateSettings()
@@ -97,12 +98,12 @@ class Rule:
                 for k, v in self.settings().items()]
 
 
-#: The rule the kept runs named ``surrogate-N`` were made with (the product kernel and none of the options).
-#: Names are read against it, not against the schema's defaults, so that a run's name keeps saying what
-#: it ran when a default changes.
-NAMING_BASE = Rule(kernel="product", coordinate_search=False, recent=0, recent_share=1.0, initial=0, training=200,
-                   exploration=0.25, warp_prior_variance=2.0, hyperparameter_initial=0, until_feasible="optimistic",
-                   front_ends=False, condition_on_batch=False)
+#: The rule the kept runs named ``surrogate-N`` were made with: the schema's first defaults (the product
+#: kernel and none of the options; :data:`optimizer.campaign.driver.EARLIER_DEFAULTS` holds those that
+#: changed). Names are read against it, not against today's defaults, so that a run's name keeps saying
+#: what it ran when a default changes.
+NAMING_BASE = replace(Rule(), **{key[-1]: value for key, value in EARLIER_DEFAULTS.items()
+                                 if key[:2] == ("algorithm", "surrogate")})
 
 
 def add_rule_arguments(parser: argparse.ArgumentParser) -> None:
